@@ -1,0 +1,193 @@
+"""Camera-pose distraction math (SPEC §1.1), free of MuJoCo so it can be tested alone.
+
+Conventions (those of the authors' 2021 code, which define the published numbers):
+
+* spherical coordinates ``(radius, azimuth, elevation)`` with
+  ``azimuth = atan2(y, x)`` and ``elevation`` the angle from the +z axis
+  (0 = straight above the focus, π/2 = level with it): the *upper frontal quadrant*
+  is ``elevation in [0, π/2]``, ``azimuth in [-π, 0]`` (DM Control cameras look along +y);
+* coordinates are taken about the world origin for fixed cameras and about the tracked
+  centre of mass for tracking cameras, in a frame turned about z by a multiple of π/2
+  (``frame_turn``) so that the original camera sits in the frontal quadrant. For the
+  paper's six tasks the turn is 0; it lets cameras that look along another axis
+  (humanoid, quadruped, fish, ...) use the same rule;
+* a camera looks along its -z axis, with +y up in the image.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+HALF_PI = math.pi / 2
+
+
+def cart_to_sphere(x: float, y: float, z: float) -> tuple[float, float, float]:
+    """Cartesian offset to ``(radius, azimuth, elevation-from-+z)``."""
+    return math.sqrt(x * x + y * y + z * z), math.atan2(y, x), math.atan2(math.hypot(x, y), z)
+
+
+def sphere_to_cart(radius: float, azimuth: float, elevation: float) -> tuple[float, float, float]:
+    """``(radius, azimuth, elevation-from-+z)`` to a Cartesian offset."""
+    s = math.sin(elevation)
+    return radius * s * math.cos(azimuth), radius * s * math.sin(azimuth), radius * math.cos(elevation)
+
+
+def frame_turn(azimuth: float) -> float:
+    """The multiple of π/2 to turn the world by so that ``azimuth`` lands in [-3π/4, -π/4]."""
+    return HALF_PI * round((azimuth + HALF_PI) / HALF_PI)
+
+
+def rotation_z(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rotation_x(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def look_at_upright(target: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """Camera rotation (columns = camera axes in world) looking at ``target``, zero roll.
+
+    The camera's x axis stays horizontal: the camera is yawed about the world z axis
+    and pitched about its own x axis. (Unstable right above or below the target, which
+    the frontal-quadrant limit keeps it away from.)
+    """
+    d = np.asarray(target, float) - np.asarray(position, float)
+    yaw = math.atan2(d[0], d[1])
+    pitch = math.atan2(d[2], math.hypot(d[0], d[1])) + HALF_PI  # camera starts looking at -z
+    return rotation_z(-yaw) @ rotation_x(pitch)
+
+
+def look_at_shortest(target: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """Camera rotation looking at ``target`` by the smallest rotation of a down-looking camera.
+
+    Used for cameras above the scene (reacher): it stays smooth through the pole, at the
+    price of some roll. Looking straight up turns the camera by π about its x axis.
+    """
+    d = np.asarray(target, float) - np.asarray(position, float)
+    d = d / np.linalg.norm(d)
+    down = np.array([0.0, 0.0, -1.0])
+    axis = np.cross(down, d)
+    sin_t = float(np.linalg.norm(axis))
+    cos_t = float(d @ down)
+    if sin_t < 1e-12:
+        return np.eye(3) if cos_t > 0 else np.diag([1.0, -1.0, -1.0])
+    axis /= sin_t
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + sin_t * k + (1.0 - cos_t) * (k @ k)
+
+
+@dataclass(frozen=True)
+class PoseRange:
+    """The camera's allowed poses and speeds for one episode (SPEC §1.1)."""
+
+    radius: tuple[float, float]
+    azimuth: tuple[float, float]
+    elevation: tuple[float, float]
+    roll: tuple[float, float]
+    max_speed: float  # |v| limit, already scaled by r0 / 4
+    speed_std: float  # σ of the velocity random walk, already scaled by r0 / 4
+    start_speed: float  # v0 ~ U(0, start_speed) in a random direction (unscaled, as in the reference)
+    max_roll_speed: float
+    roll_speed_std: float
+
+
+def pose_range(
+    radius0: float, azimuth0: float, elevation0: float, scale: float, dynamic: bool, upper_quadrant: bool
+) -> PoseRange:
+    """The pose range about an original pose for scale β (SPEC §1.1, with the *ref* choices).
+
+    Angles within ±πβ/2 of the original (clipped to the upper frontal quadrant when
+    ``upper_quadrant``), roll within ±πβ/2, radius in [r0(1 - β/2), r0(1 + 3β/2)];
+    dynamic speeds v_max = 2β/5, σ = β/10 (both times r0/4), roll v_max = πβ/50,
+    σ_roll = πβ/300.
+    """
+    delta = HALF_PI * scale
+    az = (azimuth0 - delta, azimuth0 + delta)
+    el = (elevation0 - delta, elevation0 + delta)
+    if upper_quadrant:
+        az = (max(az[0], -math.pi), min(az[1], 0.0))
+        el = (max(el[0], 0.0), min(el[1], HALF_PI))
+    speed_scale = radius0 / 4.0
+    moving = scale if dynamic else 0.0
+    return PoseRange(
+        radius=(max(radius0 * (1.0 - 0.5 * scale), 0.0), radius0 * (1.0 + 1.5 * scale)),
+        azimuth=az,
+        elevation=el,
+        roll=(-delta, delta),
+        max_speed=0.4 * moving * speed_scale,
+        speed_std=0.1 * moving * speed_scale,
+        start_speed=0.4 * moving,
+        max_roll_speed=math.pi / 50 * moving,
+        roll_speed_std=math.pi / 300 * moving,
+    )
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Camera pose ``c = (azimuth, elevation, radius, roll)`` plus its velocities."""
+
+    radius: float
+    azimuth: float
+    elevation: float
+    roll: float
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    roll_velocity: float = 0.0
+
+    def as_array(self, azimuth_offset: float = 0.0) -> np.ndarray:
+        """``[azimuth, elevation, radius, roll]`` with the azimuth in the world frame, in (-π, π]."""
+        az = math.remainder(self.azimuth + azimuth_offset, 2 * math.pi)
+        return np.array([az, self.elevation, self.radius, self.roll], dtype=np.float32)
+
+
+def sample_pose(rng: np.random.Generator, r: PoseRange) -> Pose:
+    """A uniform start pose in the range and a start velocity ~U(0, v_max) in a random direction."""
+    azimuth = rng.uniform(*r.azimuth)
+    elevation = rng.uniform(*r.elevation)
+    radius = rng.uniform(*r.radius)
+    roll = rng.uniform(*r.roll)
+    direction = rng.standard_normal(3)
+    direction /= np.linalg.norm(direction)
+    velocity = direction * rng.uniform(0.0, r.start_speed)
+    roll_velocity = rng.uniform(-r.max_roll_speed, r.max_roll_speed)
+    return Pose(radius, azimuth, elevation, roll, tuple(velocity.tolist()), roll_velocity)
+
+
+def _clip(x: float, bounds: tuple[float, float]) -> float:
+    return min(max(x, bounds[0]), bounds[1])
+
+
+def walk(pose: Pose, r: PoseRange, noise: np.ndarray) -> Pose:
+    """Advances the pose by one control step of the velocity random walk.
+
+    ``noise`` holds 4 standard normals (x, y, z, roll). The velocity is perturbed,
+    clipped to its maximum, added to the Cartesian position, the result clipped to the
+    range in spherical coordinates, and the velocity re-derived from the clipped move
+    so it never keeps pushing out of range; likewise for roll.
+    """
+    vx, vy, vz = pose.velocity
+    vx += noise[0] * r.speed_std
+    vy += noise[1] * r.speed_std
+    vz += noise[2] * r.speed_std
+    roll_velocity = _clip(pose.roll_velocity + noise[3] * r.roll_speed_std, (-r.max_roll_speed, r.max_roll_speed))
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if speed > r.max_speed:
+        shrink = r.max_speed / speed
+        vx, vy, vz = vx * shrink, vy * shrink, vz * shrink
+    x, y, z = sphere_to_cart(pose.radius, pose.azimuth, pose.elevation)
+    radius, azimuth, elevation = cart_to_sphere(x + vx, y + vy, z + vz)
+    radius, azimuth, elevation = _clip(radius, r.radius), _clip(azimuth, r.azimuth), _clip(elevation, r.elevation)
+    nx, ny, nz = sphere_to_cart(radius, azimuth, elevation)
+    roll = _clip(pose.roll + roll_velocity, r.roll)
+    return Pose(radius, azimuth, elevation, roll, (nx - x, ny - y, nz - z), roll - pose.roll)
+
+
+def walk_many(pose: Pose, r: PoseRange, rng: np.random.Generator, n_steps: int) -> Pose:
+    """``n_steps`` control steps of :func:`walk`, drawing the noise in one call."""
+    for noise in rng.standard_normal((n_steps, 4)):
+        pose = walk(pose, r, noise)
+    return pose

@@ -1,0 +1,190 @@
+"""make_env: one line from a task and a benchmark preset to a distracting pixel env."""
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+
+from dm_control import suite
+from torchrl.envs import Compose, DMControlEnv, TransformedEnv
+
+from dcs_torchrl import presets
+from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
+from dcs_torchrl.distractions.background import as_video_source
+from dcs_torchrl.render import PROFILES, RenderPixels
+
+
+@dataclass(frozen=True)
+class EnvSettings:
+    """Every setting of a suite env, resolved from a preset plus overrides.
+
+    ``num_videos`` is the number of videos actually used (a preset's ``None`` resolved
+    to the size of the split). :meth:`as_dict` is what recipes record in ``results.json``.
+    """
+
+    domain: str
+    task: str
+    benchmark: str
+    dynamic: bool
+    camera_scale: float
+    color_scale: float
+    num_videos: int
+    background_blend: float
+    blind: bool
+    background_split: str
+    background_dir: str | None
+    ground_alpha: float | None
+    action_repeat: int
+    camera_id: int
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _check_task(domain: str, task: str) -> None:
+    by_domain: dict[str, list[str]] = {}
+    for d, t in suite.ALL_TASKS:
+        by_domain.setdefault(d, []).append(t)
+    if domain not in by_domain:
+        raise ValueError(f"unknown dm_control domain {domain!r}; choose one of {sorted(by_domain)}.")
+    if task not in by_domain[domain]:
+        raise ValueError(f"unknown task {task!r} of domain {domain!r}; choose one of {by_domain[domain]}.")
+
+
+def resolve_settings(
+    domain: str,
+    task: str,
+    *,
+    benchmark: str = "none",
+    dynamic: bool = False,
+    background_dir: str | os.PathLike | None = None,
+    background_split: str = "train",
+    camera_scale: float | None = None,
+    color_scale: float | None = None,
+    num_videos: int | None = None,
+    background_blend: float | None = None,
+    blind: bool | None = None,
+    ground_alpha: float | None = None,
+    action_repeat: int | None = None,
+    camera_id: int | None = None,
+) -> EnvSettings:
+    """The :class:`EnvSettings` :func:`make_env` builds from a preset and overrides (``None`` = preset)."""
+    _check_task(domain, task)
+    if benchmark not in presets.BENCHMARKS:
+        raise ValueError(f"unknown benchmark {benchmark!r}; choose one of {list(presets.BENCHMARKS)}.")
+    preset = presets.BENCHMARKS[benchmark]
+    pick = lambda value, default: default if value is None else value  # noqa: E731
+    repeat = int(pick(action_repeat, presets.action_repeat(domain, task)))
+    if repeat < 1:
+        raise ValueError(f"action_repeat must be a positive integer, got {action_repeat}.")
+    videos = pick(num_videos, preset.num_videos)
+    if videos is None:  # all videos of the split
+        videos = len(as_video_source(background_dir, background_split))
+    blend = float(pick(background_blend, preset.background_blend))
+    shows_videos = videos > 0 and blend > 0
+    return EnvSettings(
+        domain=domain,
+        task=task,
+        benchmark=benchmark,
+        dynamic=bool(dynamic),
+        camera_scale=float(pick(camera_scale, preset.camera_scale)),
+        color_scale=float(pick(color_scale, preset.color_scale)),
+        num_videos=videos,
+        background_blend=blend,
+        blind=bool(pick(blind, preset.blind)),
+        background_split=background_split,
+        background_dir=None if background_dir is None else os.fspath(background_dir),
+        ground_alpha=pick(ground_alpha, presets.ground_alpha(domain) if shows_videos else None),
+        action_repeat=repeat,
+        camera_id=int(pick(camera_id, presets.default_camera(domain))),
+    )
+
+
+def make_env(
+    domain: str,
+    task: str,
+    *,
+    benchmark: str = "none",
+    dynamic: bool = False,
+    seed: int | None = None,
+    background_dir: str | os.PathLike | None = None,
+    background_split: str = "train",
+    expose_distractions: bool = False,
+    camera_scale: float | None = None,
+    color_scale: float | None = None,
+    num_videos: int | None = None,
+    background_blend: float | None = None,
+    blind: bool | None = None,
+    ground_alpha: float | None = None,
+    action_repeat: int | None = None,
+    camera_id: int | None = None,
+    height: int = 84,
+    width: int = 84,
+    render_profile: str = "default",
+    pixels_only: bool = True,
+    texture_size: int = 256,
+    device=None,
+) -> TransformedEnv:
+    """A Distracting Control Suite env: dm_control physics, distractions, then one render.
+
+    Builds ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False,
+    frame_skip=action_repeat), Compose(CameraDistraction, ColorDistraction,
+    BackgroundDistraction, RenderPixels))`` from a benchmark preset
+    (:data:`dcs_torchrl.BENCHMARKS`) and the paper's action repeat
+    (:data:`dcs_torchrl.TASKS`); every setting can be overridden.
+
+    Args:
+        domain, task (str): a dm_control suite task, e.g. ``"cheetah", "run"``.
+
+    Keyword Args:
+        benchmark (str): ``"none"``, ``"easy"``, ``"medium"``, ``"blind"`` or ``"hard"``.
+        dynamic (bool): distractions change every control step (else once per episode).
+        seed (int, optional): seeds the physics and every distraction (``env.set_seed``);
+            the pixel sequence is then reproducible bit for bit.
+        background_dir (path, optional): a DAVIS 2017 ``JPEGImages/480p`` folder or any
+            supported video folder; ``None`` uses the embedded default videos.
+        background_split (str): ``"train"`` (the first b videos) or ``"val"`` (held out).
+        expose_distractions (bool): add ``("distractions", "camera" | "color" |
+            "background")`` to every observation, with specs.
+        camera_scale, color_scale (float): β_cam, β_rgb overrides.
+        num_videos (int): b override (``None`` = the preset's).
+        background_blend (float): β_bg override.
+        blind (bool): turn the camera backwards (the ``blind`` preset sets it).
+        ground_alpha (float): floor opacity; defaults to the task's when videos are shown.
+        action_repeat (int): frame skip; defaults to the paper's (SPEC §3).
+        camera_id (int): the camera to distract and render; defaults to the suite's.
+        height, width (int): image size. Defaults to 84x84.
+        render_profile (str): ``"default"`` or ``"fast"`` (see :class:`RenderPixels`).
+        pixels_only (bool): drop the state observations.
+        texture_size (int): side of the background texture.
+        device: TorchRL device of the env.
+
+    Examples:
+        >>> import dcs_torchrl as dcs
+        >>> env = dcs.make_env("cheetah", "run", benchmark="medium", dynamic=True, seed=0)
+        >>> env.rollout(10)["next", "pixels"].shape
+        torch.Size([10, 84, 84, 3])
+    """
+    if render_profile not in PROFILES:
+        raise ValueError(f"unknown render_profile {render_profile!r}; choose one of {sorted(PROFILES)}.")
+    s = resolve_settings(
+        domain, task, benchmark=benchmark, dynamic=dynamic, background_dir=background_dir,
+        background_split=background_split, camera_scale=camera_scale, color_scale=color_scale,
+        num_videos=num_videos, background_blend=background_blend, blind=blind,
+        ground_alpha=ground_alpha, action_repeat=action_repeat, camera_id=camera_id,
+    )
+    expose = bool(expose_distractions)
+    transforms = Compose(
+        CameraDistraction(s.camera_scale, s.dynamic, camera_id=s.camera_id, blind=s.blind, expose=expose),
+        ColorDistraction(s.color_scale, s.dynamic, expose=expose),
+        BackgroundDistraction(
+            s.background_dir, s.dynamic, num_videos=s.num_videos, blend=s.background_blend,
+            ground_alpha=s.ground_alpha, split=s.background_split, texture_size=texture_size, expose=expose,
+        ),
+        RenderPixels(height, width, s.camera_id, profile=render_profile, pixels_only=pixels_only),
+    )
+    kwargs = {} if device is None else {"device": device}
+    env = TransformedEnv(DMControlEnv(domain, task, from_pixels=False, frame_skip=s.action_repeat, **kwargs), transforms)
+    if seed is not None:
+        env.set_seed(seed)
+    return env

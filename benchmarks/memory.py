@@ -1,0 +1,87 @@
+"""Resident memory of the suite: all 60 default videos, per extra env, and a long soak.
+
+    python benchmarks/memory.py [--soak-steps 20000] [--reset-every 25] [--domain cartpole --task swingup]
+
+1. a process holding all 60 embedded training videos (decoded at 256x256);
+2. resident memory added by each further env with dynamic backgrounds (frames shared);
+3. resident memory over ``--soak-steps`` agent steps of the hard dynamic benchmark with a
+   reset every ``--reset-every`` steps: it must stay flat after warm-up (texture uploads
+   and frame caches must not leak).
+"""
+from __future__ import annotations
+
+import argparse
+import gc
+import os
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import torch  # noqa: E402
+
+import dcs_torchrl as dcs  # noqa: E402
+from dcs_torchrl.videos import cache_info  # noqa: E402
+
+
+def rss_mb() -> float:
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    raise RuntimeError("no VmRSS in /proc/self/status (Linux only)")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--domain", default="cartpole")
+    parser.add_argument("--task", default="swingup")
+    parser.add_argument("--soak-steps", type=int, default=20_000)
+    parser.add_argument("--reset-every", type=int, default=25)
+    parser.add_argument("--envs", type=int, default=4)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    start = rss_mb()
+    print(f"python + torch + dm_control imported: {start:.0f} MB")
+
+    env = dcs.make_env(args.domain, args.task, benchmark="hard", dynamic=True, seed=0, render_profile="fast")
+    env.reset()
+    background = env.transform[2]
+    for index in range(len(background.videos)):
+        background.videos.frames(index, background.texture_size)
+    info = cache_info()
+    print(
+        f"one hard dynamic env, all {len(background.videos)} videos decoded: {rss_mb():.0f} MB resident "
+        f"(frame cache {info.bytes / 2**20:.0f} MB in {info.entries} videos)"
+    )
+
+    envs = [env]
+    before = rss_mb()
+    for i in range(1, args.envs):
+        envs.append(dcs.make_env(args.domain, args.task, benchmark="hard", dynamic=True, seed=i, render_profile="fast"))
+        envs[-1].rollout(5, break_when_any_done=False)
+    per_env = (rss_mb() - before) / max(1, args.envs - 1)
+    print(f"each further env (frames shared through the cache): {per_env:.0f} MB")
+    del envs[1:]
+    gc.collect()
+
+    td = env.reset()
+    action = torch.zeros(env.action_spec.shape, dtype=env.action_spec.dtype)
+    samples = []
+    started = time.perf_counter()
+    for step in range(1, args.soak_steps + 1):
+        td = env.step(td.set("action", action))["next"]
+        if step % args.reset_every == 0 or td["done"].any():
+            td = env.reset()
+        if step % 1000 == 0:
+            samples.append((step, rss_mb()))
+    elapsed = time.perf_counter() - started
+    print(f"soak: {args.soak_steps} agent steps, a reset every {args.reset_every}, {elapsed:.0f} s")
+    print("| agent step | resident MB |\n|---:|---:|")
+    for step, mb in samples:
+        print(f"| {step} | {mb:.1f} |")
+    warm = [mb for step, mb in samples if step >= min(2000, args.soak_steps)]
+    print(f"growth after warm-up (step {samples[1][0] if len(samples) > 1 else 0} to the end): {warm[-1] - warm[0]:+.1f} MB")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,80 @@
+"""The paper's Figure 1: six tasks at increasing distraction difficulty.
+
+    python -m dcs_torchrl.gallery --out gallery.png [--size 96] [--seed 0] [--background-dir DIR]
+
+Rows are the six tasks; columns are difficulty 0, 0.1, ..., 1: camera and colour scale
+in steps of 0.1, and 0, 1, 2, 4, ... background videos (doubling, capped at 60).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+
+import cv2
+import numpy as np
+
+from dcs_torchrl import presets
+from dcs_torchrl.envs import make_env
+
+SCALES = tuple(round(0.1 * i, 1) for i in range(11))
+
+
+def num_videos(column: int) -> int:
+    """Backgrounds of a column: 0, 1, then doubling up to 60."""
+    return 0 if column == 0 else min(2 ** (column - 1), 60)
+
+
+def cell(domain: str, task: str, column: int, size: int, seed: int, background_dir=None, steps: int = 0) -> np.ndarray:
+    """One frame of ``domain``/``task`` at the difficulty of ``column``."""
+    scale = SCALES[column]
+    env = make_env(
+        domain, task, camera_scale=scale, color_scale=scale, num_videos=num_videos(column),
+        background_dir=background_dir, height=size, width=size, seed=seed,
+    )
+    td = env.reset()
+    for _ in range(steps):
+        td = env.rand_step(td)["next"]
+    frame = td["pixels"].numpy()
+    env.close()
+    return frame
+
+
+def _label(width: int, text: str, height: int = 18) -> np.ndarray:
+    strip = np.full((height, width, 3), 255, np.uint8)
+    cv2.putText(strip, text, (3, height - 5), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
+    return strip
+
+
+def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0) -> np.ndarray:
+    """The whole figure as an RGB uint8 image."""
+    rows = []
+    header = [_label(size, f"{SCALES[c]:.1f} / {num_videos(c)}") for c in range(len(SCALES))]
+    rows.append(np.concatenate([_label(96, "beta / videos")] + header, axis=1))
+    for domain, task in presets.TASKS:
+        frames = [cell(domain, task, c, size, seed, background_dir, steps) for c in range(len(SCALES))]
+        name = np.full((size, 96, 3), 255, np.uint8)
+        for i, word in enumerate((domain, task)):
+            cv2.putText(name, word, (3, size // 2 + 14 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
+        rows.append(np.concatenate([name] + frames, axis=1))
+    return np.concatenate(rows, axis=0)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description="Write the paper's Figure 1 for this suite.")
+    parser.add_argument("--out", default="gallery.png", help="PNG file to write (refuses to overwrite without --force)")
+    parser.add_argument("--size", type=int, default=96, help="side of each frame in pixels")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=int, default=10, help="random actions before each snapshot")
+    parser.add_argument("--background-dir", default=None, help="DAVIS JPEGImages/480p folder (default: embedded videos)")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    args = parser.parse_args(argv)
+    if os.path.exists(args.out) and not args.force:
+        parser.error(f"{args.out} exists; pass --force to overwrite it or choose another --out")
+    image = gallery(args.size, args.seed, args.background_dir, args.steps)
+    if not cv2.imwrite(args.out, image[..., ::-1]):
+        parser.error(f"could not write {args.out}")
+    print(f"wrote {args.out} ({image.shape[1]}x{image.shape[0]})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""make_env: presets as data, overrides, seeding, and TorchRL's batched envs and collectors."""
+import functools
+
+import pytest
+import torch
+from torchrl.collectors import Collector, MultiSyncCollector
+from torchrl.envs import DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
+from torchrl.envs.utils import check_env_specs
+
+import dcs_torchrl as dcs
+from dcs_torchrl import BENCHMARKS, TASKS, make_env, resolve_settings
+from dcs_test_utils import PAPER_TASKS, physics_of
+
+
+def distractions(env):
+    camera, color, background, render = env.transform
+    return camera, color, background, render
+
+
+def rollout(env, steps, seed=0):
+    torch.manual_seed(seed)
+    return env.rollout(steps, break_when_any_done=False)
+
+
+@pytest.mark.parametrize("benchmark", list(BENCHMARKS))
+def test_benchmark_presets(benchmark):
+    preset = BENCHMARKS[benchmark]
+    env = make_env("cartpole", "swingup", benchmark=benchmark)
+    camera, color, background, _ = distractions(env)
+    assert camera.scale == preset.camera_scale and color.scale == preset.color_scale
+    assert camera.blind == preset.blind
+    assert len(background.videos) == (60 if preset.num_videos is None else preset.num_videos)
+    assert background.blend == 1.0
+    expected_alpha = None if benchmark == "none" else 0.3
+    assert background.ground_alpha == expected_alpha
+
+
+def test_spec_table():
+    assert {k: (v.camera_scale, v.color_scale, v.num_videos, v.blind) for k, v in BENCHMARKS.items()} == {
+        "none": (0.0, 0.0, 0, False),
+        "easy": (0.1, 0.1, 4, False),
+        "medium": (0.2, 0.2, 8, False),
+        "blind": (0.2, 0.2, 8, True),
+        "hard": (0.3, 0.3, None, False),
+    }
+    assert dict(TASKS) == {
+        ("ball_in_cup", "catch"): 4,
+        ("cartpole", "swingup"): 8,
+        ("cheetah", "run"): 4,
+        ("finger", "spin"): 2,
+        ("reacher", "easy"): 4,
+        ("walker", "walk"): 2,
+    }
+
+
+@pytest.mark.parametrize("domain,task", PAPER_TASKS)
+def test_paper_tasks(domain, task):
+    env = make_env(domain, task, benchmark="easy", dynamic=True, seed=0)
+    assert env.base_env.frame_skip == TASKS[domain, task]
+    td = rollout(env, 4)
+    assert td["next", "pixels"].shape == (4, 84, 84, 3) and td["next", "pixels"].dtype == torch.uint8
+    alpha = physics_of(env).model.mat_rgba[physics_of(env).model.name2id("grid", "material"), 3]
+    assert alpha == {"cheetah": 1.0, "walker": 1.0, "reacher": 0.0}.get(domain, 0.3)
+
+
+def test_overrides():
+    env = make_env(
+        "cheetah", "run", benchmark="medium", camera_scale=0.05, color_scale=0.7, num_videos=2,
+        background_blend=0.5, ground_alpha=0.9, action_repeat=3, height=32, width=48, blind=True,
+    )
+    camera, color, background, render = distractions(env)
+    assert (camera.scale, color.scale, len(background.videos), background.blend) == (0.05, 0.7, 2, 0.5)
+    assert background.ground_alpha == 0.9 and camera.blind and env.base_env.frame_skip == 3
+    assert env.reset()["pixels"].shape == (32, 48, 3)
+
+
+def test_resolved_settings_are_plain_data():
+    settings = resolve_settings("walker", "walk", benchmark="hard", dynamic=True)
+    assert settings.as_dict() == {
+        "domain": "walker", "task": "walk", "benchmark": "hard", "dynamic": True,
+        "camera_scale": 0.3, "color_scale": 0.3, "num_videos": 60, "background_blend": 1.0,
+        "blind": False, "background_split": "train", "background_dir": None, "ground_alpha": 1.0,
+        "action_repeat": 2, "camera_id": 0,
+    }
+    assert resolve_settings("walker", "walk", benchmark="hard", background_split="val").num_videos == 30
+
+
+def test_expose_distractions():
+    env = make_env("finger", "spin", benchmark="medium", dynamic=True, expose_distractions=True, seed=0)
+    check_env_specs(env)
+    td = rollout(env, 3)
+    nmat = physics_of(env).model.nmat
+    shapes = {k: (td["next", "distractions", k].shape, td["next", "distractions", k].dtype) for k in ("camera", "color", "background")}
+    assert shapes == {
+        "camera": ((3, 4), torch.float32),
+        "color": ((3, nmat, 3), torch.float32),
+        "background": ((3, 2), torch.int64),
+    }
+    quiet = make_env("finger", "spin", expose_distractions=True, seed=0).reset()
+    assert quiet["distractions", "background"].tolist() == [-1, -1]
+
+
+def test_seed_makes_pixels_reproducible_bit_for_bit():
+    a = rollout(make_env("walker", "walk", benchmark="medium", dynamic=True, seed=5), 12)
+    b = rollout(make_env("walker", "walk", benchmark="medium", dynamic=True, seed=5), 12)
+    c = rollout(make_env("walker", "walk", benchmark="medium", dynamic=True, seed=6), 12)
+    assert torch.equal(a["next", "pixels"], b["next", "pixels"])
+    assert not torch.equal(a["next", "pixels"], c["next", "pixels"])
+    later = make_env("walker", "walk", benchmark="medium", dynamic=True)
+    later.set_seed(5)
+    assert torch.equal(rollout(later, 12)["next", "pixels"], a["next", "pixels"])
+
+
+def test_benchmark_none_is_plain_dm_control():
+    env = make_env("cheetah", "run", seed=1)
+    plain = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False, frame_skip=4), dcs.RenderPixels())
+    plain.set_seed(1)
+    assert torch.equal(rollout(env, 5)["next", "pixels"], rollout(plain, 5)["next", "pixels"])
+
+
+def test_parallel_env_workers_get_their_own_streams():
+    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="medium", dynamic=True, expose_distractions=True)
+    env = ParallelEnv(2, factory, mp_start_method="spawn")
+    env.set_seed(0)
+    check_env_specs(env)
+    td = rollout(env, 5)
+    for key in ("camera", "color", "background"):
+        assert not torch.equal(td["next", "distractions", key][0], td["next", "distractions", key][1]), key
+    env.close()
+
+
+def test_serial_env_and_collectors():
+    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="easy", dynamic=True)
+    serial = SerialEnv(2, factory)
+    serial.set_seed(0)
+    check_env_specs(serial)
+    collector = Collector(serial, None, frames_per_batch=8, total_frames=16)
+    batches = [batch for batch in collector]
+    assert len(batches) == 2 and batches[0]["next", "pixels"].shape[-3:] == (84, 84, 3)
+    collector.shutdown()
+    multi = MultiSyncCollector([factory, factory], None, frames_per_batch=8, total_frames=16)
+    multi.set_seed(0)
+    frames = sum(batch.numel() for batch in multi)
+    multi.shutdown()
+    assert frames == 16
+
+
+def test_bad_input_names_the_fix():
+    with pytest.raises(ValueError, match="unknown dm_control domain 'cheeta'; choose one of"):
+        make_env("cheeta", "run")
+    with pytest.raises(ValueError, match="unknown task 'walk' of domain 'cheetah'; choose one of"):
+        make_env("cheetah", "walk")
+    with pytest.raises(ValueError, match="unknown benchmark 'impossible'"):
+        make_env("cheetah", "run", benchmark="impossible")
+    with pytest.raises(ValueError, match="unknown render_profile"):
+        make_env("cheetah", "run", render_profile="max")
+    with pytest.raises(ValueError, match=r"scale must be in \[0, 1\]"):
+        make_env("cheetah", "run", camera_scale=2.0)
+    with pytest.raises(ValueError, match="action_repeat must be a positive integer"):
+        make_env("cheetah", "run", action_repeat=0)
+    with pytest.raises(ValueError, match="num_videos"):
+        make_env("cheetah", "run", num_videos=61)
+    with pytest.raises(ValueError, match="seed must be a non-negative integer"):
+        make_env("cheetah", "run", seed=-1)

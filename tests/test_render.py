@@ -1,0 +1,147 @@
+"""RenderPixels: one render per agent step, after every edit, faithful to dm_control's render."""
+import numpy as np
+import pytest
+import torch
+from dm_control import suite
+from dm_control.mujoco import engine
+from torchrl.envs import Compose, DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
+from torchrl.envs.utils import check_env_specs
+
+from dcs_torchrl import CameraDistraction, ColorDistraction, RenderPixels, make_env
+from dcs_test_utils import PAPER_TASKS, physics_of
+
+
+def reference_render(physics, domain, task, size):
+    """dm_control's own render of the same scene, from a twin with the model's original settings."""
+    original = suite.load(domain, task).physics.model.vis
+    twin = physics.copy(share_model=False)
+    vis = twin.model.vis
+    vis.quality.shadowsize, vis.quality.offsamples = original.quality.shadowsize, original.quality.offsamples
+    vis.global_.offwidth, vis.global_.offheight = original.global_.offwidth, original.global_.offheight
+    image = twin.render(size, size, camera_id=0)
+    twin.free()
+    return image
+
+
+def mean_difference(domain, task, profile, size=84, steps=(0, 15, 30)):
+    env = make_env(domain, task, render_profile=profile, height=size, width=size, seed=2)
+    td = env.reset()
+    diffs = []
+    for t in range(max(steps) + 1):
+        if t in steps:
+            ref = reference_render(physics_of(env), domain, task, size)
+            diffs.append(np.abs(td["pixels"].numpy().astype(float) - ref).mean())
+        td = env.rand_step(td)["next"]
+    return float(np.mean(diffs))
+
+
+@pytest.mark.parametrize("domain,task", PAPER_TASKS)
+def test_default_profile_matches_dm_control(domain, task):
+    assert mean_difference(domain, task, "default") <= 0.1
+
+
+@pytest.mark.parametrize("domain,task", [t for t in PAPER_TASKS if t[0] != "reacher"])
+def test_fast_profile_is_within_one_grey_level(domain, task):
+    assert mean_difference(domain, task, "fast") <= 1.0
+
+
+def test_fast_profile_on_reacher_is_within_two_grey_levels():
+    # Without MSAA the thin, high-contrast arena border of reacher aliases: ~1.7 grey levels.
+    assert mean_difference("reacher", "easy", "fast") <= 2.0
+
+
+def test_default_profile_at_larger_sizes():
+    assert mean_difference("walker", "walk", "default", size=160, steps=(5,)) <= 0.1
+
+
+@pytest.mark.parametrize("frame_skip", [1, 8])
+def test_one_render_per_agent_step(monkeypatch, frame_skip):
+    calls = []
+    render = engine.Camera.render
+    monkeypatch.setattr(engine.Camera, "render", lambda self, *a, **k: calls.append(1) or render(self, *a, **k))
+    env = make_env("cartpole", "swingup", benchmark="medium", dynamic=True, action_repeat=frame_skip, seed=0)
+    env.rollout(10, break_when_any_done=False)
+    assert len(calls) == 11  # one at reset, one per agent step, whatever the frame skip
+
+
+def test_render_comes_after_the_edits_of_the_same_step():
+    # the frame rendered at step n shows the camera of step n: compare with a render of the final scene
+    env = make_env("cheetah", "run", benchmark="medium", dynamic=True, seed=0)
+    td = env.rollout(5, break_when_any_done=False)
+    physics = physics_of(env)
+    again = engine.Camera(physics, 84, 84, 0).render()
+    assert np.abs(td["next", "pixels"][-1].numpy().astype(float) - again).mean() < 0.1
+
+
+def test_pixels_only():
+    states = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels(pixels_only=False))
+    only = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels())
+    assert set(states.observation_spec.keys()) == {"position", "velocity", "pixels"}
+    assert set(only.observation_spec.keys()) == {"pixels"}
+    assert set(states.reset().keys()) >= {"position", "velocity", "pixels"}
+    check_env_specs(states)
+    check_env_specs(only)
+
+
+def test_size_and_camera():
+    env = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels(48, 64, camera_id=1))
+    pixels = env.reset()["pixels"]
+    assert pixels.shape == (48, 64, 3) and pixels.dtype == torch.uint8
+    front = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels(48, 64, camera_id=0))
+    assert (front.reset()["pixels"].float() - pixels.float()).abs().mean() > 5
+
+
+def test_two_renderers_share_one_context():
+    env = TransformedEnv(
+        DMControlEnv("cartpole", "swingup", from_pixels=False),
+        Compose(RenderPixels(), RenderPixels(160, 160, out_keys=["big"])),
+    )
+    td = env.rollout(3)
+    assert td["next", "pixels"].shape[-3:] == (84, 84, 3) and td["next", "big"].shape[-3:] == (160, 160, 3)
+
+
+def test_misplaced_distraction_is_refused():
+    with pytest.raises(RuntimeError, match="placed after RenderPixels"):
+        TransformedEnv(
+            DMControlEnv("cartpole", "swingup", from_pixels=False),
+            Compose(RenderPixels(), ColorDistraction(0.2)),
+        ).reset()
+
+
+def test_distraction_over_a_pixel_env_is_refused():
+    with pytest.raises(RuntimeError, match="from_pixels=True"):
+        TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=True), ColorDistraction(0.2))
+    with pytest.raises(RuntimeError, match="from_pixels=True"):
+        TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=True), RenderPixels())
+
+
+@pytest.mark.parametrize("batched", [SerialEnv, ParallelEnv])
+def test_distraction_over_a_batched_env_is_refused(batched):
+    base = batched(2, lambda: DMControlEnv("cartpole", "swingup", from_pixels=False))
+    with pytest.raises(RuntimeError, match="build the suite inside each worker"):
+        TransformedEnv(base, CameraDistraction(0.2))
+    base.close(raise_if_closed=False)
+
+
+def test_camera_mismatch_is_refused():
+    env = TransformedEnv(
+        DMControlEnv("cheetah", "run", from_pixels=False),
+        Compose(CameraDistraction(0.2, camera_id=1), RenderPixels(camera_id=0)),
+    )
+    with pytest.raises(ValueError, match="pass the same camera_id"):
+        env.reset()
+
+
+def test_profile_conflict_and_bad_arguments():
+    env = TransformedEnv(
+        DMControlEnv("cartpole", "swingup", from_pixels=False),
+        Compose(RenderPixels(), RenderPixels(profile="fast", out_keys=["other"])),
+    )
+    with pytest.raises(ValueError, match="one render context"):
+        env.reset()
+    with pytest.raises(ValueError, match="unknown render profile"):
+        RenderPixels(profile="ultra")
+    with pytest.raises(ValueError, match="positive image size"):
+        RenderPixels(0, 84)
+    with pytest.raises(RuntimeError, match="cannot transform stored data"):
+        RenderPixels()(make_env("cartpole", "swingup").reset())

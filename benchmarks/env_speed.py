@@ -20,7 +20,6 @@ import torch  # noqa: E402
 from dm_control import suite  # noqa: E402
 from torchrl.envs import DMControlWrapper  # noqa: E402
 
-import sys; sys.path.insert(0, "/work/scratch"); import videos_shim  # noqa
 import dcs_torchrl as dcs  # noqa: E402
 
 

@@ -167,6 +167,8 @@ def make_env(
     """
     if render_profile not in PROFILES:
         raise ValueError(f"unknown render_profile {render_profile!r}; choose one of {sorted(PROFILES)}.")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32):
+        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {seed!r}.")
     s = resolve_settings(
         domain, task, benchmark=benchmark, dynamic=dynamic, background_dir=background_dir,
         background_split=background_split, camera_scale=camera_scale, color_scale=color_scale,

@@ -1,0 +1,222 @@
+"""Build the whole report: tables (markdown + CSV), figures (PNG) and ``report.md`` linking them.
+
+Layout of ``out``::
+
+    report.md                     summary, skipped files, missing cells, links
+    runs.csv                      the tidy runs table (one row per loaded run)
+    tables/benchmark_<b>.md|csv   b in none, easy, medium, blind (+ any other benchmark found)
+    tables/interactions.md|csv
+    tables/<exp>_curves.md|csv, tables/<exp>_half_score.csv   exp in robustness, training
+    figures/benchmarks_static.png, figures/benchmarks_dynamic.png
+    figures/robustness.png, figures/training.png
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+import pandas as pd
+
+from dcs_torchrl.report import curves as curves_mod
+from dcs_torchrl.report.experiments import METHODS, TASK_ORDER
+from dcs_torchrl.report.figures import benchmark_figure, curves_figure
+from dcs_torchrl.report.interactions import interactions_markdown, interactions_missing, interactions_table
+from dcs_torchrl.report.load import Loaded, load_results
+from dcs_torchrl.report.markdown import fmt_score, md_table, seed_counts
+from dcs_torchrl.report.missing import expected_tasks, missing_cells
+from dcs_torchrl.report.paper import MEAN_DOMAIN
+from dcs_torchrl.report.select import select, tasks_of
+from dcs_torchrl.report.tables import (BOLD_FOOTNOTE, benchmark_markdown, benchmark_names, benchmark_table,
+                                       setting_name, settings_of)
+
+__all__ = ["REPORTED", "Report", "build_report"]
+
+# The experiments of SPEC §5, in the order of the report.
+REPORTED = ("benchmarks", "interactions", "robustness", "training")
+TITLES = {
+    "benchmarks": "Benchmarks (SPEC §5.3; the paper's tables default, easy, medium and Figs. 6-7)",
+    "interactions": "Interactions of distractions (SPEC §5.4; the paper's table Interactions)",
+    "robustness": "Robustness at inference (SPEC §5.1; the paper's Fig. 4)",
+    "training": "Training with distractions (SPEC §5.2; the paper's Fig. 5)",
+}
+
+
+@dataclass
+class Report:
+    """What :func:`build_report` wrote.
+
+    Attributes:
+        out: the output directory.
+        loaded: the runs and skipped files.
+        files: every file written, relative to ``out``.
+        missing: per experiment, the lines describing missing cells.
+    """
+
+    out: Path
+    loaded: Loaded
+    files: list[str] = field(default_factory=list)
+    missing: dict[str, list[str]] = field(default_factory=dict)
+
+
+class _Writer:
+    def __init__(self, report: Report):
+        self.report = report
+
+    def text(self, rel: str, text: str) -> str:
+        path = self.report.out / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        self.report.files.append(rel)
+        return rel
+
+    def csv(self, rel: str, frame: pd.DataFrame) -> str:
+        return self.text(rel, frame.to_csv(index=False))
+
+    def done(self, rel: str) -> str:
+        self.report.files.append(rel)
+        return rel
+
+
+def _steps_note(runs: pd.DataFrame) -> str:
+    counts = runs["steps"].value_counts().sort_index()
+    text = ", ".join(f"{int(s)} ({n} runs)" for s, n in counts.items())
+    return text + (" — **mixed lengths**: a cell may average runs trained for different numbers of steps"
+                   if len(counts) > 1 else "")
+
+
+def _summary(runs: pd.DataFrame) -> str:
+    rows = []
+    for experiment, g in runs.groupby(runs["experiment"].fillna("null (plain runs, in no table)"), sort=True):
+        rows.append([experiment, str(len(g)), str(g["method"].nunique()), str(len(tasks_of(g))),
+                     str(g["seed"].nunique()), _steps_note(g)])
+    if not rows:
+        return "No runs."
+    return md_table(["Experiment", "Runs", "Methods", "Tasks", "Seeds", "Steps"], rows, "lrrrrl")
+
+
+def _missing_md(lines: list[str]) -> list[str]:
+    return ["### Missing", ""] + ([f"- {line}" for line in lines] or ["Nothing missing."]) + [""]
+
+
+def _benchmarks(runs: pd.DataFrame, inter: pd.DataFrame, w: _Writer) -> list[str]:
+    tasks = tasks_of(select(runs, experiment="benchmarks"))
+    frames = []
+    md = [f"Mean over {len(tasks)} tasks: " + ", ".join(f"{d} {t}" for d, t in tasks) + ".", ""]
+    links = []
+    for benchmark in benchmark_names(runs):
+        tables = [benchmark_table(runs, benchmark, d, tasks) for d in settings_of(benchmark)]
+        frames += tables
+        name = f"tables/benchmark_{benchmark}"
+        w.text(f"{name}.md", benchmark_markdown(tables, f"Benchmark `{benchmark}`"))
+        w.csv(f"{name}.csv", pd.concat(tables, ignore_index=True))
+        links.append(f"[{benchmark}]({name}.md) ([csv]({name}.csv))")
+    md += ["Tables: " + ", ".join(links), ""]
+    all_tables = pd.concat(frames, ignore_index=True)
+    means = all_tables[all_tables.domain == MEAN_DOMAIN]
+    columns = [(b, d) for b in benchmark_names(runs) for d in settings_of(b)]
+    annotate, note = seed_counts(means["n"])
+    rows = []
+    for method in METHODS:
+        cells = [method]
+        for b, d in columns:
+            r = means[(means.method == method) & (means.benchmark == b) & (means.dynamic.isna() if d is None
+                                                                               else means.dynamic == d)].iloc[0]
+            mine = fmt_score(None if np.isnan(r["mean"]) else r["mean"], r["stderr"],
+                             int(r["n"]) if annotate else None, bool(r["bold"]))
+            paper = "" if np.isnan(r["paper_mean"]) else f" ({r['paper_mean']:.0f})"
+            cells.append(mine + paper)
+        rows.append(cells)
+    header = ["Method"] + [f"{b} {setting_name(d)}".strip() for b, d in columns]
+    caveat = "" if len(tasks) == len(TASK_ORDER) else (
+        f" — this run's mean is over {len(tasks)} tasks, the paper's over {len(TASK_ORDER)}: not comparable")
+    md += [f"Mean over tasks, this run (the paper's mean in brackets{caveat}):", "", md_table(header, rows), ""]
+    md += [note, ""] if note else []
+    md += [BOLD_FOOTNOTE, ""]
+    for dynamic in (False, True):
+        rel = w.done(str(benchmark_figure(all_tables, inter, dynamic,
+                                          w.report.out / f"figures/benchmarks_{setting_name(dynamic)}.png")
+                         .relative_to(w.report.out)))
+        md += [f"![benchmarks, {setting_name(dynamic)}]({rel})", ""]
+    return md
+
+
+def _interactions(runs: pd.DataFrame, inter: pd.DataFrame, w: _Writer) -> tuple[list[str], list[str]]:
+    text = interactions_markdown(inter)
+    w.text("tables/interactions.md", text)
+    w.csv("tables/interactions.csv", inter)
+    body = ("\n" + text.split("\n", 2)[2]).replace("\n## ", "\n### ")  # without the title, one level down
+    missing = interactions_missing(runs, expected_tasks(runs))
+    return ["Table: [interactions](tables/interactions.md) ([csv](tables/interactions.csv))", body], missing
+
+
+def _curves(runs: pd.DataFrame, experiment: str, w: _Writer) -> list[str]:
+    curves = curves_mod.curve_table(runs, experiment)
+    half = curves_mod.half_score_table(curves)
+    name = f"tables/{experiment}_curves"
+    w.text(f"{name}.md", curves_mod.curves_markdown(curves, experiment))
+    w.csv(f"{name}.csv", curves)
+    w.csv(f"tables/{experiment}_half_score.csv", half)
+    fig = w.done(str(curves_figure(curves, experiment, w.report.out / f"figures/{experiment}.png")
+                     .relative_to(w.report.out)))
+    return [f"Tables: [curves]({name}.md) ([csv]({name}.csv)), "
+            f"[half-score points](tables/{experiment}_half_score.csv)", "", f"![{experiment}]({fig})", "",
+            "Where each method loses half its score:", "", curves_mod.half_score_markdown(half), ""]
+
+
+_STDERR = object()  # resolved when called, so that a redirected sys.stderr is honoured
+
+
+def build_report(results_dir: str | Path, out: str | Path, experiment: str | None = None,
+                 *, log: TextIO | None = _STDERR) -> Report:
+    """Loads every ``results.json`` under ``results_dir`` and writes the report into ``out``.
+
+    Args:
+        results_dir: directory searched recursively for ``results.json``.
+        out: output directory (created).
+        experiment: report only this experiment (one of :data:`REPORTED`); all runs are still
+            loaded, since the interactions table reads the training and benchmarks sweeps.
+        log: where skipped files are listed (default ``sys.stderr``; None: nowhere).
+
+    Raises:
+        ValueError: unknown ``experiment``.
+        FileNotFoundError: ``results_dir`` does not exist.
+    """
+    if experiment is not None and experiment not in REPORTED:
+        raise ValueError(f"unknown experiment {experiment!r} (expected one of {', '.join(REPORTED)})")
+    loaded = load_results(results_dir)
+    log = sys.stderr if log is _STDERR else log
+    if log is not None:
+        for s in loaded.skipped:
+            print(f"skipped {s.path}: {s.reason}", file=log)
+    report = Report(out=Path(out), loaded=loaded)
+    report.out.mkdir(parents=True, exist_ok=True)
+    w = _Writer(report)
+    runs = loaded.runs
+    w.csv("runs.csv", runs)
+    inter = interactions_table(runs, expected_tasks(runs))
+    md = ["# Distracting Control Suite: results report", "",
+          f"Results directory: `{results_dir}` — {len(runs)} runs loaded, {len(loaded.skipped)} files skipped "
+          "([all runs](runs.csv)).", "", _summary(runs), "", "## Skipped files", ""]
+    md += [f"- `{s.path}`: {s.reason}" for s in loaded.skipped] or ["None."]
+    md.append("")
+    for name in REPORTED if experiment is None else (experiment,):
+        md += [f"## {TITLES[name]}", ""]
+        if name == "interactions":
+            body, missing = _interactions(runs, inter, w)
+            md += body
+            report.missing[name] = missing
+            md += _missing_md(missing)
+            continue
+        if select(runs, experiment=name).empty:
+            md += [f"No results for experiment `{name}`.", ""]
+        else:
+            md += _benchmarks(runs, inter, w) if name == "benchmarks" else _curves(runs, name, w)
+        report.missing[name] = missing_cells(runs, name)
+        md += _missing_md(report.missing[name])
+    md += ["## How the numbers are computed", "", BOLD_FOOTNOTE,
+           "See `docs/report.md` in the dcs-torchrl repository for the details.", ""]
+    w.text("report.md", "\n".join(md))
+    return report

@@ -1,0 +1,143 @@
+"""Score vs distraction intensity (experiments ``robustness`` and ``training``, SPEC §5.1-5.2).
+
+Each point is the mean over tasks (per seed, then mean ± s.e. over seeds, as in the tables)
+of one method at one intensity in one setting. The half-score table gives the first intensity
+at which a method's score is at most half its score at intensity 0, beside the paper's
+statements ("top methods lose half their score at β_cam = 0.2, β_rgb = 0.6, β_bg < 0.1").
+"""
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from dcs_torchrl.report.experiments import EXPERIMENTS, METHODS, Panel
+from dcs_torchrl.report.markdown import MISSING, fmt_score, fmt_value, md_table, seed_counts
+from dcs_torchrl.report.paper import paper_notes
+from dcs_torchrl.report.select import select, tasks_of
+from dcs_torchrl.report.stats import task_mean
+from dcs_torchrl.report.tables import setting_name
+
+__all__ = ["CURVE_COLUMNS", "curve_table", "half_score_table", "half_score_markdown", "curves_markdown"]
+
+CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks")
+
+
+def panel_runs(runs: pd.DataFrame, experiment: str, panel: Panel) -> pd.DataFrame:
+    """The runs of one panel of an experiment."""
+    return select(runs, experiment=experiment, axis=panel.axis, eval_split=panel.eval_split)
+
+
+def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
+    """Every point of the experiment's curves that has a complete seed (all tasks).
+
+    Args:
+        runs: the runs table.
+        experiment: ``robustness`` or ``training``.
+
+    Returns:
+        columns :data:`CURVE_COLUMNS`, sorted by panel, setting, method, value; the mean is over
+        every task found in the experiment (``n_tasks``), so a point lacking a task is absent.
+    """
+    tasks = tasks_of(select(runs, experiment=experiment))
+    records = []
+    for panel in EXPERIMENTS[experiment]:
+        rows = panel_runs(runs, experiment, panel)
+        groups = {key: g for key, g in rows.groupby(["dynamic", "method", "value"], sort=False)}
+        for dynamic in (False, True):
+            for method in METHODS:
+                for value in sorted(v for d, m, v in groups if d == dynamic and m == method):
+                    score = task_mean(groups[(dynamic, method, value)], tasks)
+                    if score is None:
+                        continue
+                    records.append({"experiment": experiment, "axis": panel.axis, "eval_split": panel.eval_split,
+                                    "dynamic": dynamic, "method": method, "value": value, "mean": score.mean,
+                                    "stderr": score.stderr, "n": score.n, "n_tasks": len(tasks)})
+    return pd.DataFrame.from_records(records, columns=list(CURVE_COLUMNS))
+
+
+def _paper_half(experiment: str, axis: str) -> str:
+    for note in paper_notes()["half_score"]:
+        if note["experiment"] == experiment and note["axis"] == axis:
+            return ("" if note["relation"] == "=" else note["relation"] + " ") + fmt_value(note["value"])
+    return ""
+
+
+def half_score_table(curves: pd.DataFrame) -> pd.DataFrame:
+    """Per curve: the score at intensity 0 and the first intensity where it is at most half that.
+
+    ``half_at`` is NaN when the curve never drops to half within its points; ``score_at_0``
+    is NaN (and ``half_at`` too) when the curve has no point at 0.
+
+    Examples:
+        >>> curves = pd.DataFrame({"experiment": "robustness", "axis": "camera", "eval_split": "train",
+        ...     "dynamic": False, "method": "SAC", "value": [0.0, 0.1, 0.2, 0.3], "mean": [800., 500., 400., 100.]})
+        >>> half_score_table(curves)[["score_at_0", "half_at", "paper"]].to_dict("records")
+        [{'score_at_0': 800.0, 'half_at': 0.2, 'paper': '0.2'}]
+    """
+    records = []
+    keys = ["experiment", "axis", "eval_split", "dynamic", "method"]
+    for key, group in curves.groupby(keys, sort=False):
+        group = group.sort_values("value")
+        at0 = group[group["value"] == 0]["mean"]
+        start = float(at0.iloc[0]) if len(at0) else math.nan
+        below = group[(group["value"] > 0) & (group["mean"] <= start / 2)]
+        half = below["value"].iloc[0] if len(below) and not math.isnan(start) else math.nan
+        records.append({**dict(zip(keys, key)), "score_at_0": start, "half_at": half,
+                        "max_value": group["value"].max(), "paper": _paper_half(key[0], key[1])})
+    return pd.DataFrame.from_records(records, columns=keys + ["score_at_0", "half_at", "max_value", "paper"])
+
+
+def _half_text(r) -> str:
+    if math.isnan(r.score_at_0):
+        return "no point at 0"
+    return fmt_value(r.half_at) if not math.isnan(r.half_at) else f"> {fmt_value(r.max_value)}"
+
+
+def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
+    """Markdown: per panel a table of mean ± s.e. (rows method × setting, columns intensity),
+    then where each method loses half its score."""
+    parts = [f"# Experiment `{experiment}`: score vs intensity", ""]
+    n_tasks = int(curves["n_tasks"].iloc[0]) if len(curves) else 0
+    annotate, note = seed_counts(curves["n"])
+    parts += [f"Mean over {n_tasks} tasks (per seed, then mean ± s.e. over seeds); `(n=k)` marks a seed "
+              "count other than 5." + (f" {note}" if note else ""), ""]
+    for panel in EXPERIMENTS[experiment]:
+        mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
+        parts += [f"## {panel.title} — {panel.text_xlabel}", ""]
+        if mine.empty:
+            parts += ["No results.", ""]
+            continue
+        values = sorted(set(mine["value"]))
+        rows = []
+        for (dynamic, method), g in mine.groupby(["dynamic", "method"], sort=False):
+            by_value = {v: r for v, r in zip(g["value"], g.itertuples())}
+            rows.append([f"{method} ({setting_name(dynamic)})"] + [
+                fmt_score(by_value[v].mean, by_value[v].stderr, by_value[v].n if annotate else None)
+                if v in by_value else MISSING
+                for v in values])
+        parts += [md_table(["Method (setting)"] + [fmt_value(v) for v in values], rows), ""]
+    parts += ["## Where each method loses half its score", "", half_score_markdown(half_score_table(curves)), ""]
+    return "\n".join(parts)
+
+
+def half_score_markdown(half: pd.DataFrame) -> str:
+    """A compact table of :func:`half_score_table`: rows axis × setting, columns methods, and the
+    paper's statement.
+
+    Examples:
+        >>> curves = pd.DataFrame({"experiment": "robustness", "axis": "camera", "eval_split": "train",
+        ...     "dynamic": False, "method": "SAC", "value": [0.0, 0.1, 0.2], "mean": [800., 500., 300.]})
+        >>> print(half_score_markdown(half_score_table(curves)).splitlines()[2])
+        | camera | static | 0.2 | — | — | — | — | — | 0.2 |
+    """
+    if half.empty:
+        return "No results."
+    rows = []
+    for (axis, split, dynamic), g in half.groupby(["axis", "eval_split", "dynamic"], sort=False):
+        by_method = {r.method: _half_text(r) for r in g.itertuples()}
+        rows.append([axis + ("" if split == "train" else " (unseen videos)"), setting_name(dynamic)]
+                    + [by_method.get(m, MISSING) for m in METHODS] + [g["paper"].iloc[0] or MISSING])
+    table = md_table(["Axis", "Setting", *METHODS, "Paper (top methods)"], rows, "ll" + "r" * (len(METHODS) + 1))
+    return table + ("\n\nThe first intensity whose mean score over tasks is at most half the score at 0; "
+                    "`> x`: not within the sweep (up to x).")

@@ -1,0 +1,134 @@
+"""The paper's experiments as data: methods, tasks, sweep axes and the grid each one covers.
+
+SPEC §4-§5. The report compares what a results directory holds against these grids to say
+which cells are missing; values found in the results but not listed here are reported too.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from types import MappingProxyType
+
+from dcs_torchrl.presets import BENCHMARKS, TASKS
+
+__all__ = [
+    "METHODS",
+    "TASK_ORDER",
+    "TASK_LABELS",
+    "AXES",
+    "SEEDS",
+    "Panel",
+    "EXPERIMENTS",
+    "BENCHMARK_ORDER",
+    "INTERACTION_DIFFICULTIES",
+    "single_distraction_settings",
+    "task_label",
+]
+
+# The six baselines, in the paper's row order.
+METHODS: tuple[str, ...] = ("SAC", "SAC+RAD", "SAC+DrQ", "QT-Opt", "QT-Opt+RAD", "QT-Opt+DrQ")
+
+# The paper's six tasks in its column order, and its column headers.
+TASK_ORDER: tuple[tuple[str, str], ...] = tuple(TASKS)
+TASK_LABELS: MappingProxyType[tuple[str, str], str] = MappingProxyType(
+    {
+        ("ball_in_cup", "catch"): "BiC-Catch",
+        ("cartpole", "swingup"): "C-Swingup",
+        ("cheetah", "run"): "C-Run",
+        ("finger", "spin"): "F-Spin",
+        ("reacher", "easy"): "R-Easy",
+        ("walker", "walk"): "W-Walk",
+    }
+)
+
+# Seeds per cell in the paper (SPEC §4); cells with another count are annotated.
+SEEDS = 5
+
+# Sweep axes of results.json (`sweep.axis`) and the type of their `value`.
+AXES: MappingProxyType[str, type] = MappingProxyType(
+    {"camera": float, "color": float, "background_blend": float, "num_videos": int, "benchmark": str}
+)
+
+_INTENSITIES = tuple(round(0.1 * i, 1) for i in range(11))
+# Fig. 1 caption: 0, 1, then doubling up to all 60 training videos.
+_NUM_VIDEOS = (0, 1, 2, 4, 8, 16, 32, 60)
+
+BENCHMARK_ORDER: tuple[str, ...] = ("none", "easy", "medium", "blind")
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One sweep of an experiment: an axis, its values and how to label it.
+
+    Attributes:
+        axis: the ``sweep.axis`` of the runs.
+        values: the paper's grid along the axis.
+        title: panel title in the figures.
+        xlabel: x-axis label, with the symbol and unit.
+        eval_split: ``train`` or ``val`` (unseen background videos, SPEC §5.2).
+    """
+
+    axis: str
+    values: tuple
+    title: str
+    xlabel: str
+    eval_split: str = "train"
+
+    @property
+    def text_xlabel(self) -> str:
+        """The x label without matplotlib math markup, for markdown.
+
+        Examples:
+            >>> EXPERIMENTS["robustness"][0].text_xlabel
+            'camera scale β_cam'
+        """
+        return re.sub(r"\$\\beta_\{(\w+)\}\$", r"β_\1", self.xlabel)
+
+
+# What each experiment sweeps (SPEC §5). Each panel is swept static and dynamic.
+EXPERIMENTS: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType(
+    {
+        "robustness": (
+            Panel("camera", _INTENSITIES, "Camera", "camera scale $\\beta_{cam}$"),
+            Panel("color", _INTENSITIES, "Colour", "colour scale $\\beta_{rgb}$"),
+            Panel("background_blend", _INTENSITIES, "Background",
+                  "background blend $\\beta_{bg}$ (b = 60 videos)"),
+        ),
+        "training": (
+            Panel("camera", _INTENSITIES, "Camera", "camera scale $\\beta_{cam}$"),
+            Panel("color", _INTENSITIES, "Colour", "colour scale $\\beta_{rgb}$"),
+            Panel("num_videos", _NUM_VIDEOS, "Background (training videos)",
+                  "number of training videos b ($\\beta_{bg}$ = 1)"),
+            Panel("num_videos", _NUM_VIDEOS, "Background (unseen videos)",
+                  "number of training videos b (eval: 30 unseen)", eval_split="val"),
+        ),
+        "benchmarks": (Panel("benchmark", BENCHMARK_ORDER, "Benchmarks", "benchmark"),),
+    }
+)
+
+# The difficulties of the interactions table (SPEC §5.4) and the benchmark they decompose.
+INTERACTION_DIFFICULTIES: tuple[str, ...] = ("easy", "medium")
+
+
+def single_distraction_settings(difficulty: str) -> dict[str, float | int]:
+    """The single-distraction sweep values that make up benchmark ``difficulty``.
+
+    Args:
+        difficulty: a benchmark name of :data:`dcs_torchrl.presets.BENCHMARKS`.
+
+    Examples:
+        >>> single_distraction_settings("medium")
+        {'camera': 0.2, 'color': 0.2, 'num_videos': 8}
+    """
+    b = BENCHMARKS[difficulty]
+    return {"camera": b.camera_scale, "color": b.color_scale, "num_videos": b.num_videos}
+
+
+def task_label(domain: str, task: str) -> str:
+    """The paper's column header for a task (``"domain task"`` outside the paper's six).
+
+    Examples:
+        >>> task_label("cheetah", "run"), task_label("hopper", "hop")
+        ('C-Run', 'hopper hop')
+    """
+    return TASK_LABELS.get((domain, task), f"{domain} {task}")

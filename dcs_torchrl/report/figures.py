@@ -1,0 +1,150 @@
+"""Figures (matplotlib's Agg canvas, no pyplot state, PNG): score vs intensity curves and benchmark bars.
+
+- :func:`curves_figure`: one panel per sweep of the experiment (the paper's Figs. 4-5); x the
+  intensity, y the mean score over tasks; one colour per method, static solid, dynamic dashed,
+  shaded ± s.e.
+- :func:`benchmark_figure`: per benchmark (none / easy / medium / blind) one bar per method with
+  its s.e.; a black star at the expected score if the degradations were independent (no-
+  distraction score × product of the single-distraction relative scores, the paper's Figs. 6-7);
+  the paper's published means as hollow diamonds and its expected scores as hollow stars.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS
+from dcs_torchrl.report.markdown import fmt_value
+from dcs_torchrl.report.paper import MEAN_DOMAIN
+from dcs_torchrl.report.tables import setting_name
+
+__all__ = ["METHOD_COLORS", "curves_figure", "benchmark_figure"]
+
+# One colour per method, the same in every figure: the augmented methods as in the paper's
+# text (QT-Opt blue/green, SAC orange/pink), the plain ones in muted tones.
+METHOD_COLORS = MappingProxyType({
+    "SAC": "#8c564b",
+    "SAC+RAD": "#ff7f0e",
+    "SAC+DrQ": "#e377c2",
+    "QT-Opt": "#7f7f7f",
+    "QT-Opt+RAD": "#1f77b4",
+    "QT-Opt+DrQ": "#2ca02c",
+})
+LINESTYLES = MappingProxyType({False: "-", True: "--"})
+YLABEL = "mean episode return over tasks"
+
+
+def _method_handles(methods) -> list:
+    return [Line2D([], [], color=METHOD_COLORS[m], lw=2.5, label=m) for m in methods]
+
+
+def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path) -> Path:
+    """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG.
+
+    Args:
+        curves: :func:`~dcs_torchrl.report.curves.curve_table` of the experiment.
+        experiment: ``robustness`` or ``training``.
+        path: the PNG to write.
+    """
+    panels = EXPERIMENTS[experiment]
+    fig = Figure(figsize=(4.2 * len(panels), 4.0))
+    axes = fig.subplots(1, len(panels), squeeze=False)
+    methods = [m for m in METHODS if m in set(curves["method"])]
+    n_tasks = int(curves["n_tasks"].iloc[0]) if len(curves) else 0
+    for ax, panel in zip(axes[0], panels):
+        mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
+        values = sorted(set(mine["value"]))
+        for (dynamic, method), g in mine.groupby(["dynamic", "method"], sort=False):
+            g = g.set_index("value").reindex(values)  # a missing point breaks the line instead of bridging it
+            x = np.asarray(values, float)
+            y, se = g["mean"].to_numpy(float), np.nan_to_num(g["stderr"].to_numpy(float))
+            color = METHOD_COLORS[method]
+            ax.plot(x, y, LINESTYLES[bool(dynamic)], color=color, lw=1.8, marker="o", ms=3)
+            ax.fill_between(x, y - se, y + se, color=color, alpha=0.15, lw=0)
+        if panel.axis == "num_videos":
+            ax.set_xscale("symlog", linthresh=1)
+            ticks = [v for v in panel.values]
+            ax.set_xticks(ticks, [fmt_value(v) for v in ticks])
+            ax.minorticks_off()
+        ax.set_title(panel.title, fontsize=11)
+        ax.set_xlabel(panel.xlabel)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        if mine.empty:
+            ax.text(0.5, 0.5, "no results", transform=ax.transAxes, ha="center", va="center", color="0.4")
+            ax.set_yticks([])
+    axes[0][0].set_ylabel(YLABEL if not n_tasks else YLABEL.replace("tasks", f"{n_tasks} tasks"))
+    styles = [Line2D([], [], color="k", ls=LINESTYLES[False], label="static"),
+              Line2D([], [], color="k", ls=LINESTYLES[True], label="dynamic")]
+    handles = _method_handles(methods) + styles
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False, fontsize=10)
+    titles = {"robustness": "Trained without distractions, evaluated with one distraction",
+              "training": "Trained and evaluated with one distraction"}
+    fig.suptitle(f"{titles.get(experiment, experiment)} (mean ± s.e. over seeds)", fontsize=12)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    return _save(fig, path)
+
+
+def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: bool, path: str | Path) -> Path:
+    """Bars per benchmark and method for one setting, with expected-score stars and paper markers.
+
+    Args:
+        tables: concatenated :func:`~dcs_torchrl.report.tables.benchmark_table` frames.
+        interactions: :func:`~dcs_torchrl.report.interactions.interactions_table`.
+        dynamic: the setting to plot (the no-distraction benchmark appears in both).
+        path: the PNG to write.
+    """
+    means = tables[(tables.domain == MEAN_DOMAIN) & (tables.dynamic.isna() | (tables.dynamic == dynamic))]
+    benchmarks = [b for b in BENCHMARK_ORDER if b in set(means["benchmark"])]
+    benchmarks += sorted(set(means["benchmark"]) - set(benchmarks))
+    inter = interactions[interactions.dynamic == dynamic]
+    width = 0.8 / len(METHODS)
+    fig = Figure(figsize=(10, 4.8))
+    ax = fig.subplots()
+    any_missing = False
+    for i, method in enumerate(METHODS):
+        m = means[means.method == method].set_index("benchmark").reindex(benchmarks)
+        x = np.arange(len(benchmarks)) + (i - (len(METHODS) - 1) / 2) * width
+        have = m["mean"].notna().to_numpy()
+        any_missing |= not have.all()
+        ax.bar(x[have], m["mean"].to_numpy(float)[have], width, yerr=np.nan_to_num(m["stderr"].to_numpy(float)[have]),
+               color=METHOD_COLORS[method], capsize=2, error_kw={"lw": 0.8})
+        ax.scatter(x[~have], np.zeros((~have).sum()), marker="x", s=18, color="0.55", lw=1, zorder=3, clip_on=False)
+        ax.scatter(x, m["paper_mean"], marker="D", s=28, facecolors="none", edgecolors="k", lw=1, zorder=3)
+        rows = inter[inter.method == method].set_index("difficulty")
+        for j, b in enumerate(benchmarks):
+            if b in rows.index:
+                ax.scatter(x[j], rows.at[b, "expected"], marker="*", s=110, color="k", zorder=4)
+                paper_none = m.at["none", "paper_mean"] if "none" in m.index else np.nan
+                paper_expected = paper_none * rows.at[b, "paper_product"]
+                ax.scatter(x[j], paper_expected, marker="*", s=110, facecolors="none", edgecolors="k", lw=0.8, zorder=4)
+    ax.set_xticks(np.arange(len(benchmarks)), benchmarks)
+    ax.set_xlabel("benchmark (none: no distraction; blind: medium with the camera turned away)")
+    ax.set_ylabel(YLABEL)
+    ax.set_ylim(bottom=0)
+    ax.grid(axis="y", alpha=0.3)
+    ax.set_title(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds")
+    markers = [
+        Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)"),
+        Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label="paper: expected"),
+        Line2D([], [], marker="D", color="k", mfc="none", ls="", ms=6, label="paper: mean"),
+    ] + ([Line2D([], [], marker="x", color="0.55", ls="", ms=6, label="no results")] if any_missing else [])
+    handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + markers
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=120)
+    return path

@@ -1,0 +1,224 @@
+"""Read every ``results.json`` under a directory into a tidy table, one row per run.
+
+The schema is ``docs/results_format.md``. A file that does not parse, lacks a required key,
+has a value of the wrong type or repeats a run already read (same experiment, method, task,
+setting and seed) is *skipped* and listed with its reason, never averaged in.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from dcs_torchrl.report.experiments import AXES, METHODS
+
+__all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run"]
+
+RESULTS_FILE = "results.json"
+SCHEMA = 1
+EXPERIMENT_NAMES = ("robustness", "training", "benchmarks", "interactions")
+EVAL_SPLITS = ("train", "val")
+
+_NUMBER = (int, float)
+# Required top-level keys and their JSON types (None: JSON null allowed).
+REQUIRED: dict[str, tuple] = {
+    "schema": (int,),
+    "experiment": (str, None),
+    "method": (str,),
+    "algo": (str,),
+    "aug": (str,),
+    "domain": (str,),
+    "task": (str,),
+    "seed": (int,),
+    "steps": (int,),
+    "wall_time": _NUMBER,
+    "train_env": (dict,),
+    "eval_env": (dict,),
+    "sweep": (dict, None),
+    "eval": (dict,),
+    "config": (dict,),
+}
+REQUIRED_EVAL: dict[str, tuple] = {"mean": _NUMBER, "stderr": _NUMBER, "episodes": (int,), "returns": (list,)}
+REQUIRED_SWEEP: dict[str, tuple] = {"axis": (str,), "value": (int, float, str), "dynamic": (bool,)}
+
+# One row per run; `score` is eval.mean, `score_stderr` eval.stderr (over episodes).
+RUN_COLUMNS = (
+    "path", "experiment", "method", "algo", "aug", "domain", "task", "seed", "steps", "wall_time",
+    "axis", "value", "dynamic", "eval_split", "score", "score_stderr", "episodes",
+)
+# Two runs with the same values here are the same run.
+RUN_KEY = ("experiment", "method", "domain", "task", "axis", "value", "dynamic", "eval_split", "seed")
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A results file left out of the report, and why.
+
+    Attributes:
+        path: the file, relative to the results directory.
+        reason: what is wrong with it.
+    """
+
+    path: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """What :func:`load_results` found.
+
+    Attributes:
+        runs: one row per valid run, columns :data:`RUN_COLUMNS`, sorted by path.
+        skipped: every file left out, sorted by path.
+    """
+
+    runs: pd.DataFrame
+    skipped: tuple[Skipped, ...]
+
+
+class _Invalid(ValueError):
+    pass
+
+
+def _type_ok(value, types: tuple) -> bool:
+    if value is None:
+        return None in types
+    if isinstance(value, bool):  # JSON true/false is not a number
+        return bool in types
+    return isinstance(value, tuple(t for t in types if t is not None))
+
+
+def _check(obj: dict, required: dict[str, tuple], where: str) -> None:
+    for key, types in required.items():
+        if key not in obj:
+            raise _Invalid(f"missing key {where}{key!r}")
+        if not _type_ok(obj[key], types):
+            names = "/".join("null" if t is None else t.__name__ for t in types)
+            raise _Invalid(f"{where}{key!r} is {obj[key]!r}, expected {names}")
+
+
+def _sweep_value(axis: str, value):
+    kind = AXES[axis]
+    if kind is str:
+        if not isinstance(value, str):
+            raise _Invalid(f"sweep value {value!r} of axis {axis!r} must be a string")
+        return value
+    if isinstance(value, str) or not math.isfinite(value):
+        raise _Invalid(f"sweep value {value!r} of axis {axis!r} must be a finite number")
+    if kind is int:
+        if float(value) != int(value):
+            raise _Invalid(f"sweep value {value!r} of axis {axis!r} must be an integer")
+        return int(value)
+    return round(float(value), 6)
+
+
+def _setting(data: dict) -> tuple[str | None, object, bool | None, str]:
+    """(axis, value, dynamic, eval_split) of a run; a run without sweep is placed by its benchmark."""
+    sweep = data["sweep"]
+    if sweep is None:
+        benchmark = data["eval_env"].get("benchmark")
+        if isinstance(benchmark, str):
+            return "benchmark", benchmark, bool(data["eval_env"].get("dynamic", False)), "train"
+        if data["experiment"] is not None:
+            raise _Invalid(f"experiment {data['experiment']!r} run without 'sweep' and without eval_env benchmark")
+        return None, None, None, "train"
+    _check(sweep, REQUIRED_SWEEP, "sweep.")
+    if sweep["axis"] not in AXES:
+        raise _Invalid(f"unknown sweep axis {sweep['axis']!r} (expected one of {', '.join(AXES)})")
+    split = sweep.get("eval_split", "train")
+    if split not in EVAL_SPLITS:
+        raise _Invalid(f"unknown sweep eval_split {split!r} (expected train or val)")
+    return sweep["axis"], _sweep_value(sweep["axis"], sweep["value"]), sweep["dynamic"], split
+
+
+def parse_run(data: object, path: str = "") -> dict:
+    """Validates one decoded ``results.json`` and returns its row of the runs table.
+
+    Args:
+        data: the decoded JSON document.
+        path: where it came from, stored in the row.
+
+    Raises:
+        ValueError: the document breaks the schema; the message says how.
+
+    Examples:
+        >>> doc = {"schema": 1, "experiment": "benchmarks", "method": "SAC", "algo": "sac",
+        ...        "aug": "none", "domain": "cheetah", "task": "run", "seed": 0, "steps": 500000,
+        ...        "wall_time": 1.0, "train_env": {}, "eval_env": {}, "config": {},
+        ...        "sweep": {"axis": "benchmark", "value": "easy", "dynamic": True},
+        ...        "eval": {"mean": 90.0, "stderr": 2.0, "episodes": 100, "returns": []}}
+        >>> row = parse_run(doc)
+        >>> row["method"], row["axis"], row["value"], row["dynamic"], row["score"]
+        ('SAC', 'benchmark', 'easy', True, 90.0)
+    """
+    if not isinstance(data, dict):
+        raise _Invalid(f"top level is {type(data).__name__}, expected a JSON object")
+    _check(data, REQUIRED, "")
+    if data["schema"] != SCHEMA:
+        raise _Invalid(f"schema {data['schema']!r} is not supported (expected {SCHEMA})")
+    if data["method"] not in METHODS:
+        raise _Invalid(f"unknown method {data['method']!r} (expected one of {', '.join(METHODS)})")
+    if data["experiment"] is not None and data["experiment"] not in EXPERIMENT_NAMES:
+        names = ", ".join(EXPERIMENT_NAMES)
+        raise _Invalid(f"unknown experiment {data['experiment']!r} (expected one of {names} or null)")
+    _check(data["eval"], REQUIRED_EVAL, "eval.")
+    if not math.isfinite(data["eval"]["mean"]):
+        raise _Invalid(f"eval.mean is {data['eval']['mean']!r}, expected a finite number")
+    axis, value, dynamic, split = _setting(data)
+    return {
+        "path": path, "experiment": data["experiment"], "method": data["method"], "algo": data["algo"],
+        "aug": data["aug"], "domain": data["domain"], "task": data["task"], "seed": data["seed"],
+        "steps": data["steps"], "wall_time": float(data["wall_time"]), "axis": axis, "value": value,
+        "dynamic": dynamic, "eval_split": split, "score": float(data["eval"]["mean"]),
+        "score_stderr": float(data["eval"]["stderr"]), "episodes": data["eval"]["episodes"],
+    }
+
+
+def load_results(root: str | Path) -> Loaded:
+    """Reads every ``results.json`` below ``root`` (recursively).
+
+    Args:
+        root: the results directory (e.g. a Hydra multirun directory).
+
+    Raises:
+        FileNotFoundError: ``root`` is not a directory.
+
+    Examples:
+        >>> import json, tempfile, pathlib
+        >>> root = pathlib.Path(tempfile.mkdtemp())
+        >>> _ = (root / "results.json").write_text("{not json")
+        >>> loaded = load_results(root)
+        >>> len(loaded.runs), loaded.skipped[0].path, loaded.skipped[0].reason.startswith("invalid JSON")
+        (0, 'results.json', True)
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"results directory {str(root)!r} does not exist")
+    rows, skipped, seen = [], [], {}
+    for file in sorted(root.rglob(RESULTS_FILE)):
+        rel = file.relative_to(root).as_posix()
+        try:
+            text = file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            skipped.append(Skipped(rel, f"unreadable: {err}"))
+            continue
+        try:
+            row = parse_run(json.loads(text), rel)
+        except json.JSONDecodeError as err:
+            skipped.append(Skipped(rel, f"invalid JSON: {err}"))
+            continue
+        except _Invalid as err:
+            skipped.append(Skipped(rel, str(err)))
+            continue
+        key = tuple(row[k] for k in RUN_KEY)
+        if key in seen:
+            skipped.append(Skipped(rel, f"duplicate of {seen[key]} (same experiment, method, task, setting and seed)"))
+            continue
+        seen[key] = rel
+        rows.append(row)
+    runs = pd.DataFrame(rows, columns=list(RUN_COLUMNS))
+    runs = runs.astype({"seed": "int64", "steps": "int64", "score": "float64"}) if len(runs) else runs
+    return Loaded(runs=runs, skipped=tuple(skipped))

@@ -1,0 +1,168 @@
+"""The paper's benchmark tables (no distraction, easy, medium, blind): per task and mean.
+
+Rows are methods, columns the mean over tasks and each task; cells "mean ± s.e." over seeds
+with the bold rule of :mod:`dcs_torchrl.report.stats`. Each table has the paper's published
+numbers beside it (``paper_*`` columns in the CSV, a second table in the markdown).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from dcs_torchrl.report.experiments import BENCHMARK_ORDER, METHODS, SEEDS, task_label
+from dcs_torchrl.report.markdown import MISSING, fmt_score, md_table, seed_counts
+from dcs_torchrl.report.paper import MEAN_DOMAIN, MEAN_TASK, paper_benchmarks
+from dcs_torchrl.report.select import select
+from dcs_torchrl.report.stats import ALPHA, Score, bold_flags, task_mean
+
+__all__ = [
+    "BENCHMARK_COLUMNS",
+    "BOLD_FOOTNOTE",
+    "settings_of",
+    "benchmark_table",
+    "benchmark_markdown",
+    "setting_name",
+    "benchmark_names",
+]
+
+EXPERIMENT = "benchmarks"
+BENCHMARK_COLUMNS = (
+    "benchmark", "dynamic", "method", "domain", "task", "mean", "stderr", "n", "bold",
+    "paper_mean", "paper_stderr", "paper_bold",
+)
+
+BOLD_FOOTNOTE = (
+    f"Mean ± standard error over seeds (the paper: {SEEDS} seeds; `(n=k)` marks a cell with another "
+    "count, a single seed has no standard error). **Bold**: the highest mean, and every result not "
+    f"significantly below it at p < {ALPHA:g} by Welch's one-sided t-test over seeds "
+    "(`scipy.stats.ttest_ind(equal_var=False, alternative='greater')`); results with a single "
+    "seed cannot be tested and are bold only if they have the highest mean. Mean: per seed, the "
+    "mean over the tasks of the table, then mean ± s.e. over the seeds that have every task."
+)
+
+
+def settings_of(benchmark: str) -> tuple[bool | None, ...]:
+    """The settings a benchmark is reported in: none has one, the others static and dynamic.
+
+    Examples:
+        >>> settings_of("none"), settings_of("easy")
+        ((None,), (False, True))
+    """
+    return (None,) if benchmark == "none" else (False, True)
+
+
+def setting_name(dynamic: bool | None) -> str:
+    """``static`` / ``dynamic`` / ``""`` (the no-distraction benchmark has no setting)."""
+    return "" if dynamic is None else ("dynamic" if dynamic else "static")
+
+
+def _paper_lookup(benchmark: str, dynamic: bool | None) -> dict[tuple[str, str, str], pd.Series]:
+    df = paper_benchmarks()
+    df = df[df.benchmark == benchmark]
+    if dynamic is not None:
+        df = df[df.dynamic == dynamic]
+    return {(r.method, r.domain, r.task): r for r in df.itertuples()}
+
+
+def benchmark_table(runs: pd.DataFrame, benchmark: str, dynamic: bool | None,
+                    tasks: Sequence[tuple[str, str]]) -> pd.DataFrame:
+    """One benchmark table in tidy form: a row per method and column (the mean, then each task).
+
+    Args:
+        runs: the runs table; rows of experiment ``benchmarks`` are used.
+        benchmark: ``none``, ``easy``, ``medium`` or ``blind``.
+        dynamic: the setting (ignored for ``none``).
+        tasks: the task columns (the mean is taken over them).
+
+    Returns:
+        columns :data:`BENCHMARK_COLUMNS`; the mean over tasks has ``domain="all", task="mean"``;
+        a missing cell has NaN ``mean`` and ``n = 0``.
+    """
+    dynamic = None if benchmark == "none" else dynamic
+    rows = select(runs, experiment=EXPERIMENT, axis="benchmark", value=benchmark, dynamic=dynamic)
+    paper = _paper_lookup(benchmark, dynamic)
+    columns = [(MEAN_DOMAIN, MEAN_TASK)] + list(tasks)
+    records = []
+    for domain, task in columns:
+        scores: dict[str, Score | None] = {}
+        for method in METHODS:
+            mine = rows[rows.method == method]
+            if domain == MEAN_DOMAIN:
+                scores[method] = task_mean(mine, tasks)
+            else:
+                per_seed = mine[(mine.domain == domain) & (mine.task == task)].groupby("seed")["score"].mean()
+                scores[method] = Score.of(per_seed.values, per_seed.index) if len(per_seed) else None
+        bold = bold_flags(scores)
+        for method in METHODS:
+            s, p = scores[method], paper.get((method, domain, task))
+            records.append({
+                "benchmark": benchmark, "dynamic": dynamic, "method": method, "domain": domain, "task": task,
+                "mean": s.mean if s else math.nan, "stderr": s.stderr if s else math.nan, "n": s.n if s else 0,
+                "bold": bold[method],
+                "paper_mean": float(p.mean) if p is not None else math.nan,
+                "paper_stderr": float(p.stderr) if p is not None else math.nan,
+                "paper_bold": bool(p.bold) if p is not None else None,
+            })
+    return pd.DataFrame.from_records(records, columns=list(BENCHMARK_COLUMNS))
+
+
+def _grid(table: pd.DataFrame, prefix: str, annotate: bool) -> list[list[str]]:
+    out = []
+    for method, group in table.groupby("method", sort=False):
+        cells = []
+        for r in group.itertuples():
+            mean, se, bold = getattr(r, f"{prefix}mean"), getattr(r, f"{prefix}stderr"), getattr(r, f"{prefix}bold")
+            n = r.n if prefix == "" and annotate else None
+            cells.append(fmt_score(None if np.isnan(mean) else mean, se, n, bool(bold)))
+        out.append([method] + cells)
+    return out
+
+
+def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
+    """Markdown for one benchmark: this run's tables (one per setting), then the paper's.
+
+    Args:
+        tables: frames from :func:`benchmark_table`, one per setting.
+        title: heading of the section.
+    """
+    first = tables[0]
+    header = ["Method"] + ["Mean" if d == MEAN_DOMAIN else task_label(d, t)
+                           for d, t in first[["domain", "task"]].drop_duplicates().itertuples(index=False)]
+    annotate, note = seed_counts(pd.concat(tables)["n"])
+    parts = [f"# {title}", ""]
+    for source, prefix in (("This run", ""), ("Paper (Stone et al., 2021)", "paper_")):
+        for table in tables:
+            setting = setting_name(table["dynamic"].iloc[0])
+            parts.append(f"## {source}" + (f" — {setting} setting" if setting else ""))
+            parts.append("")
+            if prefix and table["paper_mean"].isna().all():
+                parts += ["Not published as numbers.", ""]
+                continue
+            if not prefix and (table["n"] == 0).all():
+                parts += ["No results.", ""]
+                continue
+            parts += [md_table(header, _grid(table, prefix, annotate)), ""]
+            if not prefix and note:
+                parts += [note, ""]
+    parts.append("## Mean over tasks: this run vs paper")
+    parts.append("")
+    rows = []
+    for table in tables:
+        setting = setting_name(table["dynamic"].iloc[0]) or "—"
+        for r in table[table.domain == MEAN_DOMAIN].itertuples():
+            mine = fmt_score(None if np.isnan(r.mean) else r.mean, r.stderr, r.n if annotate else None)
+            paper = fmt_score(None if np.isnan(r.paper_mean) else r.paper_mean, r.paper_stderr)
+            ratio = r.mean / r.paper_mean if r.paper_mean and not np.isnan(r.mean) else math.nan
+            rows.append([setting, r.method, mine, paper, MISSING if np.isnan(ratio) else f"{ratio:.2f}"])
+    parts += [md_table(["Setting", "Method", "This run", "Paper", "This run / paper"], rows, "llrrr"), ""]
+    parts += [BOLD_FOOTNOTE, ""]
+    return "\n".join(parts)
+
+
+def benchmark_names(runs: pd.DataFrame) -> list[str]:
+    """The paper's benchmarks, then any other benchmark name found in the ``benchmarks`` runs."""
+    found = set(select(runs, experiment=EXPERIMENT, axis="benchmark")["value"])
+    return list(BENCHMARK_ORDER) + sorted(found - set(BENCHMARK_ORDER))

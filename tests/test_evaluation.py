@@ -1,0 +1,93 @@
+"""The evaluation protocol on real dm_control physics (cartpole swingup from states)."""
+import math
+
+import pytest
+import torch
+from tensordict.nn import TensorDictSequential
+from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, SerialEnv, TransformedEnv
+
+from dcs_torchrl.agents import make_encoder, make_sac_actor
+from dcs_torchrl.evaluation import EvalResult, evaluate
+
+EPISODE_STEPS = 1000 // 8  # cartpole's 1000-step time limit at action repeat 8
+
+
+def _env(seed: int | None = None) -> TransformedEnv:
+    env = TransformedEnv(
+        DMControlEnv("cartpole", "swingup", frame_skip=8),
+        Compose(CatTensors(in_keys=["position", "velocity"], out_key="observation"), DoubleToFloat()),
+    )
+    if seed is not None:
+        env.set_seed(seed)
+    return env
+
+
+def _policy(seed: int = 0):
+    torch.manual_seed(seed)
+    env = _env()
+    encoder = make_encoder((env.observation_spec["observation"].shape[-1],))
+    return TensorDictSequential(encoder, make_sac_actor(env.action_spec, encoder.feature_dim, hidden_dim=32))
+
+
+def test_eval_result_statistics():
+    result = EvalResult((1.0, 2.0, 6.0))
+    assert result.mean == 3.0
+    assert result.stderr == pytest.approx(math.sqrt(7.0 / 3.0))  # sample std (n - 1) / sqrt(n)
+    assert result.to_dict() == {"mean": 3.0, "stderr": result.stderr, "episodes": 3, "returns": [1.0, 2.0, 6.0]}
+    assert EvalResult((5.0,)).stderr == 0.0
+
+
+def test_evaluate_runs_full_deterministic_episodes_and_is_reproducible():
+    policy = _policy()
+    steps = []
+
+    def counting_policy(td):
+        steps.append(td.batch_size)
+        return policy(td)
+
+    result = evaluate(_env(), counting_policy, 3, seed=1)
+    assert len(steps) == 3 * EPISODE_STEPS  # every episode runs to dm_control's time limit
+    assert result.episodes == 3 and len(result.returns) == 3
+    assert all(0.0 <= r <= EPISODE_STEPS * 8 for r in result.returns)
+    assert result.mean == pytest.approx(sum(result.returns) / 3)
+    # deterministic policy + seeded env: the same returns again
+    assert evaluate(_env(), policy, 3, seed=1).returns == result.returns
+
+
+def test_evaluate_uses_the_deterministic_action():
+    policy = _policy()
+    direct = _env(seed=3)
+    td = direct.reset()
+    total = 0.0
+    with torch.no_grad():
+        for _ in range(EPISODE_STEPS):
+            td = policy(td)
+            torch.testing.assert_close(td["action"], torch.tanh(td["loc"]))  # no sampling when unset
+            td = direct.step(td)
+            total += td["next", "reward"].item()
+            td = td["next"]
+    assert evaluate(_env(), policy, 1, seed=3).returns[0] == pytest.approx(total)
+
+
+def test_evaluate_on_a_batched_env_counts_each_started_episode_once():
+    policy = _policy()
+    calls = []
+
+    def counting_policy(td):
+        calls.append(tuple(td.batch_size))
+        return policy(td)
+
+    env = SerialEnv(2, _env)
+    result = evaluate(env, counting_policy, 3, seed=4)
+    # episodes 0 and 1 run side by side, then sub-env 0 runs episode 2 while sub-env 1 idles
+    assert calls == [(2,)] * (2 * EPISODE_STEPS)
+    assert result.episodes == 3 and all(isinstance(r, float) for r in result.returns)
+    assert evaluate(env, policy, 3, seed=4).returns == result.returns
+    env.close()
+
+
+def test_evaluate_errors():
+    with pytest.raises(ValueError, match="episodes must be >= 1"):
+        evaluate(_env(), _policy(), 0)
+    with pytest.raises(RuntimeError, match="0 of 1 episodes finished after max_steps=5"):
+        evaluate(_env(), _policy(), 1, max_steps=5)

@@ -1,0 +1,119 @@
+"""Metrics of a run: ``metrics.csv`` always, TensorBoard or Weights & Biases by config.
+
+Rows are ``frames,name,value,wall_time`` (long format: one row per scalar, names namespaced
+``train/``, ``eval/``, ``loss/``, ``time/``), appended and flushed as they are logged. A
+checkpoint records :attr:`MetricsLogger.rows`; on resume, :meth:`MetricsLogger.truncate` drops
+the rows logged after it (the run repeats that stretch), so a killed and resumed run has every
+row once. TensorBoard drops its events after the checkpoint's frames (``purge_step``); W&B runs
+resume under the same id.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import time
+from pathlib import Path
+
+__all__ = ["BACKENDS", "MetricsLogger", "read_metrics"]
+
+BACKENDS = ("csv", "tensorboard", "wandb")
+_HEADER = ["frames", "name", "value", "wall_time"]
+
+
+def read_metrics(path: str | os.PathLike) -> list[dict]:
+    """The rows of a ``metrics.csv`` as dicts (``frames`` int, ``value`` and ``wall_time`` float)."""
+    with open(path, newline="") as f:
+        return [
+            {"frames": int(r["frames"]), "name": r["name"], "value": float(r["value"]), "wall_time": float(r["wall_time"])}
+            for r in csv.DictReader(f)
+        ]
+
+
+class MetricsLogger:
+    """Appends scalars to ``<run_dir>/metrics.csv`` and, optionally, TensorBoard or W&B.
+
+    Args:
+        run_dir (path): the run's directory.
+
+    Keyword Args:
+        backend (str): ``"csv"`` (only the CSV), ``"tensorboard"`` or ``"wandb"`` (the CSV too).
+        resume (tuple of int, optional): ``(rows, frames)`` of the checkpoint a resumed run starts
+            from: rows after it are dropped. ``None`` for a fresh run (an existing ``metrics.csv``
+            is then an error: the run directory belongs to another run).
+        project, run_name, wandb_id: W&B settings (``wandb_id`` resumes the same W&B run).
+        config (dict): logged to W&B.
+        wall_offset (float): seconds already spent (a resumed run's ``wall_time`` continues).
+    """
+
+    def __init__(
+        self,
+        run_dir: str | os.PathLike,
+        *,
+        backend: str = "csv",
+        resume: tuple[int, int] | None = None,
+        project: str = "dcs-torchrl",
+        run_name: str | None = None,
+        wandb_id: str | None = None,
+        config: dict | None = None,
+        wall_offset: float = 0.0,
+    ):
+        if backend not in BACKENDS:
+            raise ValueError(f"unknown logger backend {backend!r}: choose one of {BACKENDS} (logger.backend=...).")
+        self.path = Path(run_dir) / "metrics.csv"
+        self._start = time.time() - wall_offset
+        if resume is None and self.path.exists():
+            raise FileExistsError(f"{self.path} exists but there is no checkpoint to resume from: use a new run directory.")
+        self.rows = 0
+        if resume is not None and self.path.exists():
+            self.truncate(resume[0])
+        fresh = not self.path.exists()
+        self._file = open(self.path, "a", newline="")
+        self._writer = csv.writer(self._file)
+        if fresh:
+            self._writer.writerow(_HEADER)
+            self._file.flush()
+        self._tb = self._wandb = None
+        self.wandb_id = wandb_id
+        if backend == "tensorboard":
+            try:
+                from torch.utils.tensorboard import SummaryWriter
+            except ImportError as err:
+                raise ImportError("logger.backend=tensorboard needs `pip install dcs-torchrl[tensorboard]`.") from err
+            self._tb = SummaryWriter(str(Path(run_dir) / "tensorboard"), purge_step=None if resume is None else resume[1])
+        elif backend == "wandb":
+            try:
+                import wandb
+            except ImportError as err:
+                raise ImportError("logger.backend=wandb needs `pip install dcs-torchrl[wandb]`.") from err
+            self._wandb = wandb.init(project=project, name=run_name, id=wandb_id, resume="allow", config=config, dir=str(run_dir))
+            self.wandb_id = self._wandb.id
+
+    def truncate(self, rows: int) -> None:
+        """Keeps only the first ``rows`` rows (rewritten atomically)."""
+        rows = read_metrics(self.path)[:rows]
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        with open(tmp, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(_HEADER)
+            writer.writerows([r[k] for k in _HEADER] for r in rows)
+        os.replace(tmp, self.path)
+        self.rows = len(rows)
+
+    def log(self, frames: int, metrics: dict[str, float]) -> None:
+        """Logs each ``name: value`` at ``frames``."""
+        now = time.time() - self._start
+        for name, value in metrics.items():
+            self._writer.writerow([frames, name, repr(float(value)), f"{now:.3f}"])
+            self.rows += 1
+            if self._tb is not None:
+                self._tb.add_scalar(name, float(value), frames)
+        self._file.flush()
+        if self._wandb is not None:
+            self._wandb.log({**{k: float(v) for k, v in metrics.items()}, "frames": frames}, step=frames)
+
+    def close(self) -> None:
+        self._file.close()
+        if self._tb is not None:
+            self._tb.close()
+        if self._wandb is not None:
+            self._wandb.finish()

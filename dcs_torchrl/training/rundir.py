@@ -1,0 +1,87 @@
+"""A run directory belongs to one configuration: finished runs are skipped, others resume.
+
+``run_config.json`` records the settings that define what is trained (everything but the
+budget, evaluation, logging, checkpoint cadence and device). Launching again with the same
+settings in the same directory resumes from the last checkpoint, or does nothing if
+``results.json`` already holds a run of at least the requested budget. Different settings are
+an error that names both values: nothing in the directory is overwritten.
+"""
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+__all__ = ["IDENTITY_EXCLUDED", "RunDirectory", "RunMismatchError", "write_json_atomic"]
+
+# Top-level config entries that may change between launches of the same run.
+IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "experiment", "sweep", "progress")
+
+
+class RunMismatchError(ValueError):
+    """The run directory holds a run of another configuration."""
+
+
+def write_json_atomic(path: str | os.PathLike, data) -> None:
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=False) + "\n")
+    os.replace(tmp, path)
+
+
+def _flatten(tree, prefix: str = "") -> dict[str, object]:
+    if isinstance(tree, Mapping):
+        out: dict[str, object] = {}
+        for key, value in tree.items():
+            out.update(_flatten(value, f"{prefix}{key}."))
+        return out
+    return {prefix[:-1]: tree}
+
+
+class RunDirectory:
+    """The files of one run: ``run_config.json``, ``results.json``, ``checkpoints/``.
+
+    Args:
+        path: the run directory (Hydra's ``hydra.run.dir``), created if missing.
+        config (dict): the run's full resolved config.
+    """
+
+    def __init__(self, path: str | os.PathLike, config: Mapping):
+        self.path = Path(path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        self.config = dict(config)
+        self.identity = {k: v for k, v in self.config.items() if k not in IDENTITY_EXCLUDED}
+        self.checkpoints = self.path / "checkpoints"
+        self.results_path = self.path / "results.json"
+
+    def claim(self) -> None:
+        """Records this run's identity, or checks it against the one recorded (raises on mismatch)."""
+        recorded_path = self.path / "run_config.json"
+        if recorded_path.exists():
+            recorded = json.loads(recorded_path.read_text())
+            mine, theirs = _flatten(self.identity), _flatten(recorded)
+            diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>"))
+            if diff:
+                lines = ", ".join(f"{k}: {theirs.get(k, '<unset>')!r} there, {mine.get(k, '<unset>')!r} now" for k in diff)
+                raise RunMismatchError(
+                    f"{self.path} holds a run of another configuration ({lines}). Nothing was changed: choose another "
+                    "directory (hydra.run.dir=...) or repeat the recorded settings to resume it."
+                )
+        elif any(self.path.glob("checkpoints/checkpoint_*.pt")) or (self.path / "metrics.csv").exists():
+            raise RunMismatchError(f"{self.path} holds files of a run without run_config.json: choose another directory.")
+        else:
+            write_json_atomic(recorded_path, self.identity)
+
+    def finished(self, total_frames: int) -> dict | None:
+        """The recorded results if this run already trained ``total_frames`` or more, else ``None``."""
+        if not self.results_path.exists():
+            return None
+        try:
+            results = json.loads(self.results_path.read_text())
+        except json.JSONDecodeError:
+            return None
+        return results if results.get("steps", -1) >= total_frames else None
+
+    def write_results(self, results: dict) -> None:
+        write_json_atomic(self.results_path, results)

@@ -118,10 +118,10 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     method = method_name(cfg.algo.name, cfg.algo.aug)
     _check_config(cfg)
     config = OmegaConf.to_container(cfg, resolve=True)
-    run = RunDirectory(run_dir, config)
     train_settings = env_settings(cfg.env.domain, cfg.env.task, _env_options(cfg.env))
     eval_options = {**_env_options(cfg.env), **{k: v for k, v in _env_options(cfg.eval_env).items() if v is not None}}
     eval_settings = env_settings(cfg.env.domain, cfg.env.task, eval_options)
+    run = RunDirectory(run_dir, config)
     run.claim()
     done = run.finished(cfg.total_frames)
     if done is not None:

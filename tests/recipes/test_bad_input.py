@@ -1,0 +1,63 @@
+"""Bad recipe input: a clear error that names the fix, raised before anything is written."""
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.errors import ConfigCompositionException
+
+from dcs_torchrl.training import RunMismatchError, train
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def load_recipe(algo: str):
+    spec = importlib.util.spec_from_file_location(f"recipe_{algo}", ROOT / "recipes" / algo / f"{algo}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def config(algo: str, *overrides: str):
+    with initialize_config_dir(str(ROOT / "recipes" / algo), version_base=None):
+        return compose("config", overrides=list(overrides))
+
+
+@pytest.mark.parametrize(
+    "algo,overrides,error,match",
+    [
+        ("sac", ["algo.aug=crop"], ValueError, r"unknown augmentation 'crop'.*algo.aug="),
+        ("qtopt", ["algo.name=ppo"], ValueError, r"unknown algorithm 'ppo'"),
+        ("sac", ["env.benchmark=extreme"], ValueError, r"unknown benchmark 'extreme'; choose one of"),
+        ("sac", ["env.task=sprint"], ValueError, r"unknown task 'sprint'"),
+        ("qtopt", ["env.background_dir=/no/such/davis"], FileNotFoundError, r"env.background_dir='/no/such/davis' does not exist"),
+        ("sac", ["algo.batch_size=2048", "replay_buffer.size=1000"], ValueError, r"larger than the replay buffer"),
+        ("sac", ["total_frames=0"], ValueError, r"total_frames must be a positive integer"),
+    ],
+)
+def test_bad_settings_fail_before_writing(tmp_path, algo, overrides, error, match):
+    cfg = config(algo, *overrides)
+    with pytest.raises(error, match=match):
+        train(cfg, load_recipe(algo).__dict__[f"{'SAC' if algo == 'sac' else 'QTOpt'}Agent"], tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_unknown_setting_is_refused_by_hydra():
+    with pytest.raises(ConfigCompositionException, match="env.cam_scale"):
+        config("sac", "env.cam_scale=0.3")
+
+
+def test_resume_with_another_config_is_refused_and_overwrites_nothing(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    recorded = {"seed": 0, "env": {"domain": "cartpole", "task": "swingup"}}
+    (run / "run_config.json").write_text(json.dumps(recorded))
+    (run / "metrics.csv").write_text("frames,name,value,wall_time\n")
+    cfg = config("sac", "algo.aug=rad")
+    with pytest.raises(RunMismatchError, match="holds a run of another configuration"):
+        train(cfg, load_recipe("sac").SACAgent, run)
+    assert json.loads((run / "run_config.json").read_text()) == recorded
+    assert (run / "metrics.csv").read_text() == "frames,name,value,wall_time\n"

@@ -1,0 +1,43 @@
+"""metrics.csv rows survive resumes exactly once; run directories refuse other configs."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from dcs_torchrl.training import MetricsLogger, RunDirectory, RunMismatchError, read_metrics
+
+
+def test_resume_drops_rows_after_the_checkpoint(tmp_path):
+    log = MetricsLogger(tmp_path)
+    log.log(10, {"train/a": 1.0, "loss/b": 2.0})
+    rows_at_checkpoint = log.rows
+    log.log(20, {"train/a": 3.0})
+    log.close()
+    with pytest.raises(FileExistsError, match="new run directory"):
+        MetricsLogger(tmp_path)
+    resumed = MetricsLogger(tmp_path, resume=(rows_at_checkpoint, 10))
+    resumed.log(20, {"train/a": 4.0})
+    resumed.close()
+    rows = read_metrics(tmp_path / "metrics.csv")
+    assert [(r["frames"], r["name"], r["value"]) for r in rows] == [(10, "train/a", 1.0), (10, "loss/b", 2.0), (20, "train/a", 4.0)]
+
+
+def test_unknown_backend(tmp_path):
+    with pytest.raises(ValueError, match="logger.backend"):
+        MetricsLogger(tmp_path, backend="neptune")
+
+
+def test_run_directory_identity(tmp_path):
+    config = {"seed": 1, "env": {"domain": "cartpole"}, "total_frames": 100, "eval": {"episodes": 2}}
+    RunDirectory(tmp_path, config).claim()
+    recorded = (tmp_path / "run_config.json").read_text()
+    RunDirectory(tmp_path, {**config, "total_frames": 500, "eval": {"episodes": 100}}).claim()  # budget may change
+    with pytest.raises(RunMismatchError, match="env.domain: 'cartpole' there, 'walker' now"):
+        RunDirectory(tmp_path, {**config, "env": {"domain": "walker"}}).claim()
+    assert (tmp_path / "run_config.json").read_text() == recorded  # nothing overwritten
+    run = RunDirectory(tmp_path, config)
+    assert run.finished(100) is None
+    run.write_results({"steps": 100, "eval": {"mean": 1.0}})
+    assert run.finished(100)["steps"] == 100 and run.finished(200) is None
+    assert json.loads((tmp_path / "results.json").read_text())["steps"] == 100

@@ -10,6 +10,7 @@ agent steps (one action = ``action_repeat`` frames); DrQ's one update per agent 
 from __future__ import annotations
 
 import random
+import sys
 import time
 from collections import defaultdict
 from collections.abc import Callable
@@ -97,6 +98,17 @@ def _check_config(cfg: DictConfig) -> None:
         raise ValueError(f"device={cfg.device!r} but CUDA is not available: use device=cpu.")
 
 
+def _acting_on(policy, device: str):
+    """The policy for CPU envs: on another device, observations go there and actions come back."""
+    if torch.device(device).type == "cpu":
+        return policy
+
+    def act(tensordict: TensorDictBase) -> TensorDictBase:
+        return tensordict.update(policy(tensordict.to(device)).select("action").to("cpu"))
+
+    return act
+
+
 def _evaluate(env, policy, episodes: int, seed: int) -> EvalResult:
     with torch.no_grad():
         return evaluate(env, policy, episodes, seed=seed)
@@ -140,6 +152,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     observation_shape = tuple(env.observation_spec["pixels"].shape[-3:])
     action_spec = env.action_spec[0] if env.batch_size else env.action_spec
     agent = build_agent(cfg, observation_shape, action_spec, repeat)
+    eval_policy = _acting_on(agent.policy, cfg.device)
     buffer = FrameStackReplayBuffer(
         cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
         batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // repeat),
@@ -176,7 +189,8 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     )
     losses: dict[str, list[float]] = defaultdict(list)
     last_log, tick = counters["steps"], time.time()
-    bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress, dynamic_ncols=True)
+    bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress,
+                dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
     for data in collector:
         if counters["steps"] >= total_steps:
             break
@@ -207,7 +221,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
             losses.clear()
             last_log, tick = counters["steps"], time.time()
         if frames >= counters["next_eval"] and counters["steps"] < total_steps:
-            result = _evaluate(eval_env, agent.policy, cfg.eval.periodic_episodes, cfg.seed + EVAL_SEED_OFFSET + frames)
+            result = _evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, cfg.seed + EVAL_SEED_OFFSET + frames)
             logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
             bar.write(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
             counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
@@ -219,11 +233,11 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
 
     frames = counters["steps"] * repeat
     checkpoint()  # before the final evaluation's rows: a resumed run logs them once
-    result = _evaluate(eval_env, agent.policy, cfg.eval.episodes, cfg.seed + EVAL_SEED_OFFSET)
+    result = _evaluate(eval_env, eval_policy, cfg.eval.episodes, cfg.seed + EVAL_SEED_OFFSET)
     logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
     print(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
     if cfg.eval.video:
-        _record_episode(eval_env, agent.policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
+        _record_episode(eval_env, eval_policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
     logger.close()
     eval_env.close()
     plot_learning_curve(read_metrics(logger.path), run.path / "learning_curve.png", title=f"{method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")

@@ -1,0 +1,138 @@
+"""Evaluation-only runs: a trained run's final checkpoint evaluated under other env settings.
+
+The trained run's ``results.json`` gives its config (networks, pixels, seed, training env) and
+its step count; its newest checkpoint (which must be the final one) gives the weights. Each
+evaluation resolves its env as the training env plus its ``eval_env`` overrides, runs the
+deterministic policy for ``eval.episodes`` episodes with the seeds of the training's final
+evaluation, and writes a ``results.json`` (``docs/results_format.md``) into its own directory.
+An evaluation directory belongs to one trained run and one setting (``run_config.json``, as
+for training runs): a finished evaluation is skipped, another one is refused.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from omegaconf import OmegaConf
+
+from dcs_torchrl.experiments.grid import Evaluation
+
+__all__ = ["AGENTS", "evaluate_checkpoint", "load_agent_class"]
+
+# The agent class of each algorithm: (recipe file below recipes/, class name).
+AGENTS = {"sac": ("sac/sac.py", "SACAgent"), "qtopt": ("qtopt/qtopt.py", "QTOptAgent")}
+RECIPES = Path(__file__).resolve().parents[2] / "recipes"
+
+
+def load_agent_class(algo: str, recipes: str | os.PathLike = RECIPES) -> type:
+    """The recipe's agent class (``SACAgent``, ``QTOptAgent``), imported from its file."""
+    if algo not in AGENTS:
+        raise ValueError(f"unknown algorithm {algo!r}: choose one of {list(AGENTS)}.")
+    file, name = AGENTS[algo]
+    spec = importlib.util.spec_from_file_location(f"dcs_recipe_{algo}", Path(recipes) / file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, name)
+
+
+def _trained_results(train_dir: Path) -> dict:
+    try:
+        return json.loads((train_dir / "results.json").read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"{train_dir} has no results.json: train this run first (its final checkpoint is evaluated)."
+        ) from None
+
+
+def evaluate_checkpoint(
+    train_dir: str | os.PathLike,
+    targets: Sequence[tuple[str | os.PathLike, Evaluation]],
+    *,
+    settings: Mapping[str, object] | None = None,
+    threads: int | None = None,
+) -> list[dict]:
+    """Evaluates the final checkpoint of ``train_dir`` once per ``(directory, evaluation)``.
+
+    Args:
+        train_dir: a finished training run (``results.json`` and its checkpoints).
+        targets: where each evaluation writes, and what it evaluates.
+        settings: ``eval.episodes``, ``eval.num_workers``, ``device`` overriding the trained run's.
+        threads: torch threads (``None``: torch's default).
+
+    Returns:
+        the ``results.json`` content of every target, in order.
+    """
+    import torch
+
+    from dcs_torchrl.training import RunDirectory, load_latest, make_pixel_env, pixel_env
+    from dcs_torchrl.training.envs import ENV_KEYS, env_settings
+    from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, _acting_on
+    from dcs_torchrl.evaluation import evaluate
+
+    train_dir = Path(train_dir)
+    trained = _trained_results(train_dir)
+    cfg = OmegaConf.create(trained["config"])
+    settings = dict(settings or {})
+    episodes = int(settings.get("eval.episodes", cfg.eval.episodes))
+    workers = int(settings.get("eval.num_workers", cfg.eval.num_workers))
+    device = str(settings.get("device", cfg.device))
+    train_options = {k: v for k, v in OmegaConf.to_container(cfg.env).items() if k in ENV_KEYS}
+    pixels = dict(frame_stack=cfg.pixels.frame_stack, image_size=cfg.pixels.image_size, render_profile=cfg.pixels.render_profile)
+    seed = cfg.seed + EVAL_SEED_OFFSET
+
+    results: list[dict | None] = []
+    todo = []
+    for out_dir, evaluation in targets:
+        eval_settings = env_settings(cfg.env.domain, cfg.env.task, {**train_options, **evaluation.eval_env})
+        run = RunDirectory(out_dir, {"trained": os.path.relpath(train_dir, out_dir), "eval_env": eval_settings.as_dict()})
+        run.claim()
+        done = run.finished(trained["steps"])
+        if done is not None and done["eval"]["episodes"] >= episodes:
+            results.append(done)
+        else:
+            results.append(None)
+            todo.append((len(results) - 1, run, evaluation, eval_settings))
+    if not todo:
+        return results
+
+    if threads is not None:
+        torch.set_num_threads(threads)
+    loaded = load_latest(train_dir / "checkpoints")
+    if loaded is None or loaded[0] != trained["steps"]:
+        raise RuntimeError(f"{train_dir}: the newest checkpoint ({loaded and loaded[0]} frames) is not the final one "
+                           f"({trained['steps']} frames, results.json).")
+    agent = None
+    for index, run, evaluation, eval_settings in todo:
+        start = time.time()
+        if workers > 1:
+            env = make_pixel_env(eval_settings, num_workers=workers, seed=seed, **pixels)
+        else:  # in this process: no worker to start
+            env = pixel_env(eval_settings, seed=seed, **pixels)
+        if agent is None:
+            spec = env.action_spec[0] if env.batch_size else env.action_spec
+            agent = load_agent_class(cfg.algo.name)(OmegaConf.merge(cfg, {"device": device}),
+                                                    tuple(env.observation_spec["pixels"].shape[-3:]), spec,
+                                                    eval_settings.action_repeat)
+            agent.load_state_dict(loaded[1]["agent"])
+            policy = _acting_on(agent.policy, device)
+        result = evaluate(env, policy, episodes, seed=seed)
+        env.close()
+        config = OmegaConf.to_container(cfg)
+        config.update(
+            experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,
+            eval_env={**config["eval_env"], **evaluation.eval_env},
+            eval={**config["eval"], "episodes": episodes, "num_workers": workers},
+            evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": loaded[0]},
+        )
+        results[index] = {
+            "schema": 1, "experiment": evaluation.experiment, "method": trained["method"], "algo": trained["algo"],
+            "aug": trained["aug"], "domain": trained["domain"], "task": trained["task"], "seed": trained["seed"],
+            "steps": trained["steps"], "wall_time": time.time() - start, "train_env": trained["train_env"],
+            "eval_env": eval_settings.as_dict(), "sweep": evaluation.sweep, "eval": result.to_dict(), "config": config,
+        }
+        run.write_results(results[index])
+    return results

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+import torch
+
 from torchrl.envs import DMControlEnv
 
 from dcs_torchrl.evaluation import evaluate
@@ -22,6 +24,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    torch.manual_seed(args.seed)  # the random actions come from torch's generator
     env = DMControlEnv(args.domain, args.task, frame_skip=action_repeat(args.domain, args.task))
     result = evaluate(env, lambda td: td.set("action", env.action_spec.rand()), args.episodes, seed=args.seed)
     print(f"random policy, {args.domain} {args.task}: {result.mean:.1f} ± {result.stderr:.1f} "

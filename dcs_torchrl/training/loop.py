@@ -148,104 +148,115 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
 
     pixels = dict(frame_stack=cfg.pixels.frame_stack, image_size=cfg.pixels.image_size, render_profile=cfg.pixels.render_profile)
     env = make_pixel_env(train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
-    eval_env = make_pixel_env(eval_settings, num_workers=cfg.eval.num_workers, seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
-    observation_shape = tuple(env.observation_spec["pixels"].shape[-3:])
-    action_spec = env.action_spec[0] if env.batch_size else env.action_spec
-    agent = build_agent(cfg, observation_shape, action_spec, repeat)
-    eval_policy = _acting_on(agent.policy, cfg.device)
-    buffer = FrameStackReplayBuffer(
-        cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
-        batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // repeat),
-    )
+    eval_env = None
+    try:
+        eval_env = make_pixel_env(eval_settings, num_workers=cfg.eval.num_workers, seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
+        observation_shape = tuple(env.observation_spec["pixels"].shape[-3:])
+        action_spec = env.action_spec[0] if env.batch_size else env.action_spec
+        agent = build_agent(cfg, observation_shape, action_spec, repeat)
+        eval_policy = _acting_on(agent.policy, cfg.device)
+        buffer = FrameStackReplayBuffer(
+            cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
+            batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // repeat),
+        )
 
-    counters = {"steps": 0, "updates": 0, "episodes": 0, "wall_time": 0.0, "metrics_rows": 0, "next_eval": cfg.eval.interval, "next_checkpoint": cfg.checkpoint.interval}
-    wandb_id = None
-    resumed = load_latest(run.checkpoints)
-    if resumed is not None:
-        frames, state = resumed
-        agent.load_state_dict(state["agent"])
-        buffer.load_state_dict(state["buffer"])
-        counters, wandb_id = state["counters"], state.get("wandb_id")
-        _set_rng_state(state["rng"])
-        print(f"{run.path}: resuming from the checkpoint at {frames} frames.")
-    logger = MetricsLogger(
-        run.path, backend=cfg.logger.backend, resume=None if resumed is None else (counters["metrics_rows"], resumed[0]),
-        project=cfg.logger.project, run_name=f"{method} {cfg.env.domain}-{cfg.env.task} seed {cfg.seed}",
-        wandb_id=wandb_id, config=config, wall_offset=counters["wall_time"],
-    )
-    start, start_time = counters["steps"], time.time() - counters["wall_time"]
+        counters = {"steps": 0, "updates": 0, "episodes": 0, "wall_time": 0.0, "metrics_rows": 0, "next_eval": cfg.eval.interval, "next_checkpoint": cfg.checkpoint.interval}
+        wandb_id = None
+        resumed = load_latest(run.checkpoints)
+        if resumed is not None:
+            frames, state = resumed
+            agent.load_state_dict(state["agent"])
+            buffer.load_state_dict(state["buffer"])
+            counters, wandb_id = state["counters"], state.get("wandb_id")
+            _set_rng_state(state["rng"])
+            print(f"{run.path}: resuming from the checkpoint at {frames} frames.")
+            resume = (counters["metrics_rows"], resumed[0])
+        elif (run.path / "metrics.csv").exists():  # this run (claim() checked), stopped before its first checkpoint
+            print(f"{run.path}: restarting from frame 0 (stopped before its first checkpoint).")
+            resume = (0, 0)
+        else:
+            resume = None
+        logger = MetricsLogger(
+            run.path, backend=cfg.logger.backend, resume=resume,
+            project=cfg.logger.project, run_name=f"{method} {cfg.env.domain}-{cfg.env.task} seed {cfg.seed}",
+            wandb_id=wandb_id, config=config, wall_offset=counters["wall_time"],
+        )
+        start, start_time = counters["steps"], time.time() - counters["wall_time"]
 
-    def checkpoint() -> None:
-        counters["wall_time"], counters["metrics_rows"] = time.time() - start_time, logger.rows
-        state = {"agent": agent.state_dict(), "buffer": buffer.state_dict(), "counters": dict(counters),
-                 "rng": _rng_state(), "wandb_id": logger.wandb_id, "config": run.identity}
-        save_checkpoint(run.checkpoints, counters["steps"] * repeat, state, keep=cfg.checkpoint.keep)
+        def checkpoint() -> None:
+            counters["wall_time"], counters["metrics_rows"] = time.time() - start_time, logger.rows
+            state = {"agent": agent.state_dict(), "buffer": buffer.state_dict(), "counters": dict(counters),
+                     "rng": _rng_state(), "wandb_id": logger.wandb_id, "config": run.identity}
+            save_checkpoint(run.checkpoints, counters["steps"] * repeat, state, keep=cfg.checkpoint.keep)
 
-    collector = Collector(
-        env, agent.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
-        total_frames=max(total_steps - start, 1), init_random_frames=max(cfg.collector.seed_steps - start, 0),
-        auto_register_policy_transforms=False,
-        **({} if cfg.device == "cpu" else {"policy_device": cfg.device, "env_device": "cpu", "storing_device": "cpu"}),
-    )
-    losses: dict[str, list[float]] = defaultdict(list)
-    last_log, tick = counters["steps"], time.time()
-    bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress,
-                dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
-    for data in collector:
-        if counters["steps"] >= total_steps:
-            break
-        buffer.extend(data)
-        counters["steps"] += data.numel()
+        collector = Collector(
+            env, agent.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
+            total_frames=max(total_steps - start, 1), init_random_frames=max(cfg.collector.seed_steps - start, 0),
+            auto_register_policy_transforms=False,
+            **({} if cfg.device == "cpu" else {"policy_device": cfg.device, "env_device": "cpu", "storing_device": "cpu"}),
+        )
+        losses: dict[str, list[float]] = defaultdict(list)
+        last_log, tick = counters["steps"], time.time()
+        bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress,
+                    dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
+        for data in collector:
+            if counters["steps"] >= total_steps:
+                break
+            buffer.extend(data)
+            counters["steps"] += data.numel()
+            frames = counters["steps"] * repeat
+            finished = data["next", "done"].squeeze(-1)
+            returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
+            for episode_return in returns:
+                counters["episodes"] += 1
+                logger.log(frames, {"train/episode_return": episode_return, "train/episodes": counters["episodes"]})
+            if counters["steps"] >= cfg.collector.seed_steps:
+                for _ in range(data.numel() * cfg.algo.updates_per_step):
+                    for name, value in agent.update(buffer.sample(), counters["updates"]).items():
+                        losses[name].append(float(torch.as_tensor(value).detach()))
+                    counters["updates"] += 1
+            bar.update(data.numel() * repeat)
+            if returns:
+                bar.set_postfix(ret=f"{returns[-1]:.0f}", upd=counters["updates"], refresh=False)
+            if frames - last_log * repeat >= cfg.logger.interval or counters["steps"] >= total_steps:
+                elapsed = max(time.time() - tick, 1e-9)
+                logger.log(frames, {
+                    **{name: sum(v) / len(v) for name, v in losses.items()},
+                    "time/fps": (counters["steps"] - last_log) * repeat / elapsed,
+                    "time/elapsed": time.time() - start_time, "train/updates": counters["updates"],
+                    "train/buffer_gb": buffer.nbytes() / 1e9,
+                })
+                losses.clear()
+                last_log, tick = counters["steps"], time.time()
+            if frames >= counters["next_eval"] and counters["steps"] < total_steps:
+                result = _evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, cfg.seed + EVAL_SEED_OFFSET + frames)
+                logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
+                bar.write(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
+                counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
+            if frames >= counters["next_checkpoint"] and counters["steps"] < total_steps:
+                checkpoint()
+                counters["next_checkpoint"] += cfg.checkpoint.interval * (1 + (frames - counters["next_checkpoint"]) // cfg.checkpoint.interval)
+        bar.close()
+        collector.shutdown()
+
         frames = counters["steps"] * repeat
-        finished = data["next", "done"].squeeze(-1)
-        returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
-        for episode_return in returns:
-            counters["episodes"] += 1
-            logger.log(frames, {"train/episode_return": episode_return, "train/episodes": counters["episodes"]})
-        if counters["steps"] >= cfg.collector.seed_steps:
-            for _ in range(data.numel() * cfg.algo.updates_per_step):
-                for name, value in agent.update(buffer.sample(), counters["updates"]).items():
-                    losses[name].append(float(torch.as_tensor(value).detach()))
-                counters["updates"] += 1
-        bar.update(data.numel() * repeat)
-        if returns:
-            bar.set_postfix(ret=f"{returns[-1]:.0f}", upd=counters["updates"], refresh=False)
-        if frames - last_log * repeat >= cfg.logger.interval or counters["steps"] >= total_steps:
-            elapsed = max(time.time() - tick, 1e-9)
-            logger.log(frames, {
-                **{name: sum(v) / len(v) for name, v in losses.items()},
-                "time/fps": (counters["steps"] - last_log) * repeat / elapsed,
-                "time/elapsed": time.time() - start_time, "train/updates": counters["updates"],
-                "train/buffer_gb": buffer.nbytes() / 1e9,
-            })
-            losses.clear()
-            last_log, tick = counters["steps"], time.time()
-        if frames >= counters["next_eval"] and counters["steps"] < total_steps:
-            result = _evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, cfg.seed + EVAL_SEED_OFFSET + frames)
-            logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
-            bar.write(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
-            counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
-        if frames >= counters["next_checkpoint"] and counters["steps"] < total_steps:
-            checkpoint()
-            counters["next_checkpoint"] += cfg.checkpoint.interval * (1 + (frames - counters["next_checkpoint"]) // cfg.checkpoint.interval)
-    bar.close()
-    collector.shutdown()
-
-    frames = counters["steps"] * repeat
-    checkpoint()  # before the final evaluation's rows: a resumed run logs them once
-    result = _evaluate(eval_env, eval_policy, cfg.eval.episodes, cfg.seed + EVAL_SEED_OFFSET)
-    logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
-    print(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
-    if cfg.eval.video:
-        _record_episode(eval_env, eval_policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
-    logger.close()
-    eval_env.close()
-    plot_learning_curve(read_metrics(logger.path), run.path / "learning_curve.png", title=f"{method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")
-    results = {
-        "schema": 1, "experiment": cfg.experiment, "method": method, "algo": cfg.algo.name, "aug": cfg.algo.aug,
-        "domain": cfg.env.domain, "task": cfg.env.task, "seed": cfg.seed, "steps": frames,
-        "wall_time": time.time() - start_time, "train_env": train_settings.as_dict(), "eval_env": eval_settings.as_dict(),
-        "sweep": config.get("sweep"), "eval": result.to_dict(), "config": config,
-    }
+        checkpoint()  # before the final evaluation's rows: a resumed run logs them once
+        result = _evaluate(eval_env, eval_policy, cfg.eval.episodes, cfg.seed + EVAL_SEED_OFFSET)
+        logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
+        print(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
+        if cfg.eval.video:
+            _record_episode(eval_env, eval_policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
+        logger.close()
+        plot_learning_curve(read_metrics(logger.path), run.path / "learning_curve.png", title=f"{method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")
+        results = {
+            "schema": 1, "experiment": cfg.experiment, "method": method, "algo": cfg.algo.name, "aug": cfg.algo.aug,
+            "domain": cfg.env.domain, "task": cfg.env.task, "seed": cfg.seed, "steps": frames,
+            "wall_time": time.time() - start_time, "train_env": train_settings.as_dict(), "eval_env": eval_settings.as_dict(),
+            "sweep": config.get("sweep"), "eval": result.to_dict(), "config": config,
+        }
+    finally:  # an error must not leave spawned env workers behind (the process would never exit)
+        for e in (env, eval_env):
+            if e is not None:
+                e.close(raise_if_closed=False)
     run.write_results(results)
     return results

@@ -80,6 +80,7 @@ def train_states(
 
     collector = Collector(
         env, policy, frames_per_batch=10, total_frames=steps, init_random_frames=seed_steps,
+        auto_register_policy_transforms=False,
     )
     buffer = ReplayBuffer(storage=LazyTensorStorage(100_000), batch_size=batch_size)
     updates = 0

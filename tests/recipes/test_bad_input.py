@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -61,3 +63,24 @@ def test_resume_with_another_config_is_refused_and_overwrites_nothing(tmp_path):
         train(cfg, load_recipe("sac").SACAgent, run)
     assert json.loads((run / "run_config.json").read_text()) == recorded
     assert (run / "metrics.csv").read_text() == "frames,name,value,wall_time\n"
+
+
+FAILING_RUN = """
+import sys
+from hydra import compose, initialize_config_dir
+from dcs_torchrl.training import train
+
+def broken_agent(*args):
+    raise RuntimeError("the agent could not be built")
+
+with initialize_config_dir(sys.argv[1], version_base=None):
+    cfg = compose("config", overrides=["pixels.image_size=48", "pixels.render_profile=fast", "progress=false"])
+train(cfg, broken_agent, sys.argv[2])
+"""
+
+
+def test_an_error_after_the_env_workers_started_ends_the_process(tmp_path):
+    # the spawned ParallelEnv workers are closed on the way out; left open, the process never exits
+    done = subprocess.run([sys.executable, "-c", FAILING_RUN, str(ROOT / "recipes" / "sac"), str(tmp_path / "run")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0 and "the agent could not be built" in done.stderr

@@ -79,3 +79,27 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     episodes = [r["value"] for r in rows if r["name"] == "train/episodes"]
     assert episodes == sorted(episodes) and len(set(episodes)) == len(episodes)
     assert json.loads((run_dir / "results.json").read_text())["steps"] == 960
+
+
+def test_a_run_killed_before_its_first_checkpoint_starts_again_from_frame_0(tmp_path):
+    run_dir = tmp_path / "run"
+    args = ("checkpoint.interval=100000",)  # no checkpoint before the end
+    process = recipe("sac", run_dir, *args, background=True)
+    deadline = time.time() + 300
+    while time.time() < deadline and not any(r["name"] == "time/fps" for r in _rows(run_dir)):
+        time.sleep(0.2)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    assert _rows(run_dir) and not list(run_dir.glob("checkpoints/checkpoint_*.pt"))
+    again = recipe("sac", run_dir, *args)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert "restarting from frame 0" in again.stdout
+    rows = _rows(run_dir)
+    counts = collections.Counter((r["frames"], r["name"]) for r in rows if r["name"] != "train/episode_return")
+    assert max(counts.values()) == 1, [k for k, v in counts.items() if v > 1]
+    assert sorted(r["frames"] for r in rows if r["name"] == "time/fps") == list(range(80, 481, 80))
+
+
+def _rows(run_dir: Path) -> list[dict]:
+    path = run_dir / "metrics.csv"
+    return read_metrics(path) if path.exists() else []

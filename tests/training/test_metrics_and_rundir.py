@@ -23,6 +23,20 @@ def test_resume_drops_rows_after_the_checkpoint(tmp_path):
     assert [(r["frames"], r["name"], r["value"]) for r in rows] == [(10, "train/a", 1.0), (10, "loss/b", 2.0), (20, "train/a", 4.0)]
 
 
+def test_a_row_cut_short_by_a_kill_is_dropped_on_resume(tmp_path):
+    log = MetricsLogger(tmp_path)
+    log.log(10, {"train/a": 1.0})
+    log.close()
+    with open(tmp_path / "metrics.csv", "a") as f:
+        f.write("20,train/a,3.1")  # killed mid-row: no newline, the value may be cut
+    assert [r["frames"] for r in read_metrics(tmp_path / "metrics.csv")] == [10]
+    resumed = MetricsLogger(tmp_path, resume=(1, 10))
+    resumed.log(20, {"train/a": 3.25})
+    resumed.close()
+    rows = read_metrics(tmp_path / "metrics.csv")
+    assert [(r["frames"], r["value"]) for r in rows] == [(10, 1.0), (20, 3.25)]
+
+
 def test_unknown_backend(tmp_path):
     with pytest.raises(ValueError, match="logger.backend"):
         MetricsLogger(tmp_path, backend="neptune")

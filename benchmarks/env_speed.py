@@ -59,6 +59,24 @@ def time_resets(env, resets):
     return (time.perf_counter() - start) / resets
 
 
+def interleaved_medians(envs: dict, steps: int, rounds: int, resets: int) -> tuple[dict, dict]:
+    """Median seconds per step and per reset of each env, timed in interleaved rounds."""
+    tds = {name: env.reset() for name, env in envs.items()}
+    for _ in range(60):  # warm-up: contexts, code paths, and every background video decoded once
+        for name, env in envs.items():
+            tds[name] = env.reset()
+    per_step = {name: [] for name in envs}
+    per_reset = {name: [] for name in envs}
+    for _ in range(rounds):
+        for name, env in envs.items():
+            seconds, tds[name] = time_steps(env, tds[name], steps)
+            per_step[name].append(seconds / steps)
+            per_reset[name].append(time_resets(env, resets))
+            tds[name] = env.reset()
+    return ({name: statistics.median(v) for name, v in per_step.items()},
+            {name: statistics.median(v) for name, v in per_reset.items()})
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=300)
@@ -70,20 +88,7 @@ def main():
     for spec in args.tasks:
         domain, task = spec.split(":")
         envs = {name: make() for name, make in candidates(domain, task).items()}
-        tds = {name: env.reset() for name, env in envs.items()}
-        for _ in range(60):  # warm-up: contexts, code paths, and every background video decoded once
-            for name, env in envs.items():
-                tds[name] = env.reset()
-        per_step = {name: [] for name in envs}
-        per_reset = {name: [] for name in envs}
-        for _ in range(args.rounds):
-            for name, env in envs.items():
-                seconds, tds[name] = time_steps(env, tds[name], args.steps)
-                per_step[name].append(seconds / args.steps)
-                per_reset[name].append(time_resets(env, args.resets))
-                tds[name] = env.reset()
-        step = {name: statistics.median(v) for name, v in per_step.items()}
-        reset = {name: statistics.median(v) for name, v in per_reset.items()}
+        step, reset = interleaved_medians(envs, args.steps, args.rounds, args.resets)
         base = step["torchrl from_pixels"]
         print(f"\n{domain} {task} (action repeat {dcs.TASKS[domain, task]}), median of {args.rounds} rounds x {args.steps} steps")
         print(f"| env | agent steps/s | ms/step | speed-up vs torchrl | reset ms |")

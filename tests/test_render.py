@@ -1,4 +1,6 @@
 """RenderPixels: one render per agent step, after every edit, faithful to dm_control's render."""
+import functools
+
 import numpy as np
 import pytest
 import torch
@@ -117,7 +119,7 @@ def test_distraction_over_a_pixel_env_is_refused():
 
 @pytest.mark.parametrize("batched", [SerialEnv, ParallelEnv])
 def test_distraction_over_a_batched_env_is_refused(batched):
-    base = batched(2, lambda: DMControlEnv("cartpole", "swingup", from_pixels=False))
+    base = batched(2, functools.partial(DMControlEnv, "cartpole", "swingup", from_pixels=False))
     with pytest.raises(RuntimeError, match="build the suite inside each worker"):
         TransformedEnv(base, CameraDistraction(0.2))
     base.close(raise_if_closed=False)

@@ -69,8 +69,8 @@ def evaluate_checkpoint(
     import torch
 
     from dcs_torchrl.training import RunDirectory, load_latest, make_pixel_env, pixel_env
-    from dcs_torchrl.training.envs import ENV_KEYS, env_settings
-    from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, _acting_on
+    from dcs_torchrl.training.envs import env_options, env_settings, pixel_options
+    from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, acting_on
     from dcs_torchrl.evaluation import evaluate
 
     train_dir = Path(train_dir)
@@ -80,8 +80,8 @@ def evaluate_checkpoint(
     episodes = int(settings.get("eval.episodes", cfg.eval.episodes))
     workers = int(settings.get("eval.num_workers", cfg.eval.num_workers))
     device = str(settings.get("device", cfg.device))
-    train_options = {k: v for k, v in OmegaConf.to_container(cfg.env).items() if k in ENV_KEYS}
-    pixels = dict(frame_stack=cfg.pixels.frame_stack, image_size=cfg.pixels.image_size, render_profile=cfg.pixels.render_profile)
+    train_options = env_options(cfg.env)
+    pixels = pixel_options(cfg.pixels)
     seed = cfg.seed + EVAL_SEED_OFFSET
 
     results: list[dict | None] = []
@@ -90,8 +90,8 @@ def evaluate_checkpoint(
         eval_settings = env_settings(cfg.env.domain, cfg.env.task, {**train_options, **evaluation.eval_env})
         run = RunDirectory(out_dir, {"trained": os.path.relpath(train_dir, out_dir), "eval_env": eval_settings.as_dict()})
         run.claim()
-        done = run.finished(trained["steps"])
-        if done is not None and done["eval"]["episodes"] >= episodes:
+        done = run.finished(trained["steps"], episodes)
+        if done is not None:
             results.append(done)
         else:
             results.append(None)
@@ -118,7 +118,7 @@ def evaluate_checkpoint(
                                                     tuple(env.observation_spec["pixels"].shape[-3:]), spec,
                                                     eval_settings.action_repeat)
             agent.load_state_dict(loaded[1]["agent"])
-            policy = _acting_on(agent.policy, device)
+            policy = acting_on(agent.policy, device)
         result = evaluate(env, policy, episodes, seed=seed)
         env.close()
         config = OmegaConf.to_container(cfg)

@@ -26,6 +26,7 @@ from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from dcs_torchrl.experiments.grid import Run, expand, method_parts, override_value, select
+from dcs_torchrl.training.rundir import finished_results, flatten, write_json_atomic
 
 __all__ = ["StatusCallback", "grid_runs", "grid_status", "recipe_command", "run_job", "status_text"]
 
@@ -55,15 +56,9 @@ def _register_resolver() -> None:
 _register_resolver()
 
 
-def _flatten(tree, prefix: str = "") -> list[tuple[str, object]]:
-    if isinstance(tree, dict):
-        return [item for key, value in tree.items() for item in _flatten(value, f"{prefix}{key}.")]
-    return [(prefix[:-1], tree)]
-
-
 def recipe_settings(cfg: DictConfig) -> dict[str, object]:
     """The budget's recipe overrides, flattened (``{"eval.episodes": 100, ...}``)."""
-    return dict(_flatten(OmegaConf.to_container(cfg.budget.recipe, resolve=True)))
+    return flatten(OmegaConf.to_container(cfg.budget.recipe, resolve=True))
 
 
 def recipe_command(run: Run, cfg: DictConfig) -> list[str]:
@@ -88,9 +83,7 @@ def _status_path(cfg: DictConfig, run: Run) -> Path:
 def _write_status(cfg: DictConfig, run: Run, **fields) -> None:
     path = _status_path(cfg, run)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({"run": run.id, "time": time.strftime("%Y-%m-%d %H:%M:%S"), **fields}, indent=2) + "\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, {"run": run.id, "time": time.strftime("%Y-%m-%d %H:%M:%S"), **fields})
 
 
 def _tail(path: Path, lines: int = 15) -> str:
@@ -158,18 +151,6 @@ def run_job(cfg: DictConfig, run_id: str) -> str:
     return "done"
 
 
-def _results_done(path: Path, steps: int | None = None, episodes: int | None = None) -> dict | None:
-    try:
-        results = json.loads((path / "results.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        return None
-    if steps is not None and results.get("steps", -1) < steps:
-        return None
-    if episodes is not None and results.get("eval", {}).get("episodes", -1) < episodes:
-        return None
-    return results
-
-
 def _pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -183,10 +164,10 @@ def _pid_alive(pid: int) -> bool:
 def run_state(run: Run, cfg: DictConfig) -> tuple[str, str]:
     """``(state, detail)`` of one run: one of :data:`STATES`."""
     settings = recipe_settings(cfg)
-    trained = _results_done(run.dir(_root(cfg)), steps=settings.get("total_frames"))
+    trained = finished_results(run.dir(_root(cfg)), steps=settings.get("total_frames"))
     if trained is not None:
         episodes = settings.get("eval.episodes")
-        if all(_results_done(run.eval_dir(_root(cfg), e), steps=trained["steps"], episodes=episodes)
+        if all(finished_results(run.eval_dir(_root(cfg), e), steps=trained["steps"], episodes=episodes)
                for e in run.evaluations):
             return "done", ""
     try:

@@ -12,17 +12,28 @@ import functools
 from collections.abc import Mapping
 from pathlib import Path
 
+from omegaconf import OmegaConf
 from torchrl.envs import CatFrames, Compose, ParallelEnv, PermuteTransform, RewardSum, TransformedEnv
 
 from dcs_torchrl.envs import EnvSettings, make_env, resolve_settings
 
-__all__ = ["ENV_KEYS", "env_settings", "make_pixel_env", "pixel_env"]
+__all__ = ["ENV_KEYS", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options"]
 
 # The make_env settings a recipe's ``env`` / ``eval_env`` config groups may set.
 ENV_KEYS = (
     "benchmark", "dynamic", "background_dir", "background_split", "camera_scale", "color_scale", "num_videos",
     "background_blend", "blind", "ground_alpha", "action_repeat", "camera_id",
 )
+
+
+def env_options(section) -> dict:
+    """The make_env settings of a recipe's ``env`` / ``eval_env`` config section."""
+    return {k: v for k, v in OmegaConf.to_container(section, resolve=True).items() if k in ENV_KEYS}
+
+
+def pixel_options(pixels) -> dict:
+    """The keyword arguments of :func:`pixel_env` / :func:`make_pixel_env` from a recipe's ``pixels`` section."""
+    return dict(frame_stack=pixels.frame_stack, image_size=pixels.image_size, render_profile=pixels.render_profile)
 
 
 def env_settings(domain: str, task: str, options: Mapping) -> EnvSettings:

@@ -26,15 +26,15 @@ from torchrl.collectors import Collector
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from tqdm import tqdm
 
-from dcs_torchrl.evaluation import EvalResult, evaluate
+from dcs_torchrl.evaluation import evaluate
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import ENV_KEYS, env_settings, make_pixel_env
+from dcs_torchrl.training.envs import ENV_KEYS, env_options, env_settings, make_pixel_env, pixel_options
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, read_metrics
 from dcs_torchrl.training.replay import FrameStackReplayBuffer
 from dcs_torchrl.training.rundir import RunDirectory
 
-__all__ = ["AUGMENTATIONS", "Agent", "METHODS", "method_name", "train"]
+__all__ = ["AUGMENTATIONS", "Agent", "METHODS", "acting_on", "method_name", "train"]
 
 AUGMENTATIONS = ("none", "rad", "drq")
 METHODS = {"sac": "SAC", "qtopt": "QT-Opt"}
@@ -77,10 +77,6 @@ def _set_rng_state(state: dict) -> None:
     random.setstate(state["python"])
 
 
-def _env_options(section) -> dict:
-    return {k: v for k, v in OmegaConf.to_container(section, resolve=True).items() if k in ENV_KEYS}
-
-
 def _check_config(cfg: DictConfig) -> None:
     unknown = sorted(set(cfg.env) - set(ENV_KEYS) - {"domain", "task"}) + sorted(f"eval_{k}" for k in set(cfg.eval_env) - set(ENV_KEYS))
     if unknown:
@@ -98,7 +94,7 @@ def _check_config(cfg: DictConfig) -> None:
         raise ValueError(f"device={cfg.device!r} but CUDA is not available: use device=cpu.")
 
 
-def _acting_on(policy, device: str):
+def acting_on(policy, device: str):
     """The policy for CPU envs: on another device, observations go there and actions come back."""
     if torch.device(device).type == "cpu":
         return policy
@@ -107,11 +103,6 @@ def _acting_on(policy, device: str):
         return tensordict.update(policy(tensordict.to(device)).select("action").to("cpu"))
 
     return act
-
-
-def _evaluate(env, policy, episodes: int, seed: int) -> EvalResult:
-    with torch.no_grad():
-        return evaluate(env, policy, episodes, seed=seed)
 
 
 def _record_episode(env, policy, path: Path, max_steps: int) -> None:
@@ -130,8 +121,8 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     method = method_name(cfg.algo.name, cfg.algo.aug)
     _check_config(cfg)
     config = OmegaConf.to_container(cfg, resolve=True)
-    train_settings = env_settings(cfg.env.domain, cfg.env.task, _env_options(cfg.env))
-    eval_options = {**_env_options(cfg.env), **{k: v for k, v in _env_options(cfg.eval_env).items() if v is not None}}
+    train_settings = env_settings(cfg.env.domain, cfg.env.task, env_options(cfg.env))
+    eval_options = {**env_options(cfg.env), **{k: v for k, v in env_options(cfg.eval_env).items() if v is not None}}
     eval_settings = env_settings(cfg.env.domain, cfg.env.task, eval_options)
     run = RunDirectory(run_dir, config)
     run.claim()
@@ -146,7 +137,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     np.random.seed(cfg.seed % 2**32)
     random.seed(cfg.seed)
 
-    pixels = dict(frame_stack=cfg.pixels.frame_stack, image_size=cfg.pixels.image_size, render_profile=cfg.pixels.render_profile)
+    pixels = pixel_options(cfg.pixels)
     env = make_pixel_env(train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
     eval_env = None
     try:
@@ -154,7 +145,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
         observation_shape = tuple(env.observation_spec["pixels"].shape[-3:])
         action_spec = env.action_spec[0] if env.batch_size else env.action_spec
         agent = build_agent(cfg, observation_shape, action_spec, repeat)
-        eval_policy = _acting_on(agent.policy, cfg.device)
+        eval_policy = acting_on(agent.policy, cfg.device)
         buffer = FrameStackReplayBuffer(
             cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
             batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // repeat),
@@ -229,7 +220,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
                 losses.clear()
                 last_log, tick = counters["steps"], time.time()
             if frames >= counters["next_eval"] and counters["steps"] < total_steps:
-                result = _evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, cfg.seed + EVAL_SEED_OFFSET + frames)
+                result = evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
                 logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
                 bar.write(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
                 counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
@@ -241,7 +232,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
 
         frames = counters["steps"] * repeat
         checkpoint()  # before the final evaluation's rows: a resumed run logs them once
-        result = _evaluate(eval_env, eval_policy, cfg.eval.episodes, cfg.seed + EVAL_SEED_OFFSET)
+        result = evaluate(eval_env, eval_policy, cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
         logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
         print(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
         if cfg.eval.video:

@@ -23,25 +23,16 @@ _HEADER = ["frames", "name", "value", "wall_time"]
 def read_metrics(path: str | os.PathLike) -> list[dict]:
     """The rows of a ``metrics.csv`` as dicts (``frames`` int, ``value`` and ``wall_time`` float).
 
-    A last row cut short (a run killed while writing it) is left out.
+    A last row cut short (a run killed while writing it: no line end) is left out.
     """
     with open(path, newline="") as f:
-        raw = list(csv.DictReader(f))
-    if raw and (None in raw[-1].values() or "" in raw[-1].values() or not _ends_with_newline(path)):
-        raw = raw[:-1]
+        lines = f.readlines()
+    if lines and not lines[-1].endswith("\n"):
+        lines.pop()
     return [
         {"frames": int(r["frames"]), "name": r["name"], "value": float(r["value"]), "wall_time": float(r["wall_time"])}
-        for r in raw
+        for r in csv.DictReader(lines)
     ]
-
-
-def _ends_with_newline(path: str | os.PathLike) -> bool:
-    with open(path, "rb") as f:
-        f.seek(0, os.SEEK_END)
-        if f.tell() == 0:
-            return True
-        f.seek(-1, os.SEEK_END)
-        return f.read(1) == b"\n"
 
 
 class MetricsLogger:

@@ -13,7 +13,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["IDENTITY_EXCLUDED", "RunDirectory", "RunMismatchError", "write_json_atomic"]
+__all__ = ["IDENTITY_EXCLUDED", "RunDirectory", "RunMismatchError", "finished_results", "flatten", "write_json_atomic"]
 
 # Top-level config entries that may change between launches of the same run.
 IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "experiment", "sweep", "progress")
@@ -30,13 +30,28 @@ def write_json_atomic(path: str | os.PathLike, data) -> None:
     os.replace(tmp, path)
 
 
-def _flatten(tree, prefix: str = "") -> dict[str, object]:
+def flatten(tree, prefix: str = "") -> dict[str, object]:
+    """A nested mapping as dotted keys: ``{"eval": {"episodes": 2}}`` -> ``{"eval.episodes": 2}``."""
     if isinstance(tree, Mapping):
         out: dict[str, object] = {}
         for key, value in tree.items():
-            out.update(_flatten(value, f"{prefix}{key}."))
+            out.update(flatten(value, f"{prefix}{key}."))
         return out
     return {prefix[:-1]: tree}
+
+
+def finished_results(run_dir: str | os.PathLike, steps: int | None = None, episodes: int | None = None) -> dict | None:
+    """The ``results.json`` of ``run_dir`` if it covers ``steps`` frames and ``episodes``
+    evaluation episodes (``None``: any), else ``None`` (also when missing or unreadable)."""
+    try:
+        results = json.loads((Path(run_dir) / "results.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if steps is not None and results.get("steps", -1) < steps:
+        return None
+    if episodes is not None and results.get("eval", {}).get("episodes", -1) < episodes:
+        return None
+    return results
 
 
 class RunDirectory:
@@ -60,7 +75,7 @@ class RunDirectory:
         recorded_path = self.path / "run_config.json"
         if recorded_path.exists():
             recorded = json.loads(recorded_path.read_text())
-            mine, theirs = _flatten(self.identity), _flatten(recorded)
+            mine, theirs = flatten(self.identity), flatten(recorded)
             diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>"))
             if diff:
                 lines = ", ".join(f"{k}: {theirs.get(k, '<unset>')!r} there, {mine.get(k, '<unset>')!r} now" for k in diff)
@@ -73,15 +88,10 @@ class RunDirectory:
         else:
             write_json_atomic(recorded_path, self.identity)
 
-    def finished(self, total_frames: int) -> dict | None:
-        """The recorded results if this run already trained ``total_frames`` or more, else ``None``."""
-        if not self.results_path.exists():
-            return None
-        try:
-            results = json.loads(self.results_path.read_text())
-        except json.JSONDecodeError:
-            return None
-        return results if results.get("steps", -1) >= total_frames else None
+    def finished(self, total_frames: int, episodes: int | None = None) -> dict | None:
+        """The recorded results if this run already trained ``total_frames`` or more (and was
+        evaluated over ``episodes`` or more), else ``None``."""
+        return finished_results(self.path, total_frames, episodes)
 
     def write_results(self, results: dict) -> None:
         write_json_atomic(self.results_path, results)

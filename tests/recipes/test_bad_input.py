@@ -1,7 +1,6 @@
 """Bad recipe input: a clear error that names the fix, raised before anything is written."""
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -11,16 +10,10 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
 
+from dcs_torchrl.experiments.evaluate import load_agent_class
 from dcs_torchrl.training import RunMismatchError, train
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def load_recipe(algo: str):
-    spec = importlib.util.spec_from_file_location(f"recipe_{algo}", ROOT / "recipes" / algo / f"{algo}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def config(algo: str, *overrides: str):
@@ -43,7 +36,7 @@ def config(algo: str, *overrides: str):
 def test_bad_settings_fail_before_writing(tmp_path, algo, overrides, error, match):
     cfg = config(algo, *overrides)
     with pytest.raises(error, match=match):
-        train(cfg, load_recipe(algo).__dict__[f"{'SAC' if algo == 'sac' else 'QTOpt'}Agent"], tmp_path / "run")
+        train(cfg, load_agent_class(algo), tmp_path / "run")
     assert not (tmp_path / "run").exists()
 
 
@@ -60,7 +53,7 @@ def test_resume_with_another_config_is_refused_and_overwrites_nothing(tmp_path):
     (run / "metrics.csv").write_text("frames,name,value,wall_time\n")
     cfg = config("sac", "algo.aug=rad")
     with pytest.raises(RunMismatchError, match="holds a run of another configuration"):
-        train(cfg, load_recipe("sac").SACAgent, run)
+        train(cfg, load_agent_class("sac"), run)
     assert json.loads((run / "run_config.json").read_text()) == recorded
     assert (run / "metrics.csv").read_text() == "frames,name,value,wall_time\n"
 

@@ -11,6 +11,10 @@ import os
 # before dm_control is imported; an explicit MUJOCO_GL (osmesa, glfw) is respected.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from dcs_torchrl import _judged_warnings  # noqa: E402
+
+_judged_warnings.install()  # only the dependency warnings judged harmless (see the module)
+
 from dcs_torchrl.distractions import (  # noqa: E402
     BackgroundDistraction,
     CameraDistraction,

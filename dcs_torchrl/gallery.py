@@ -12,6 +12,7 @@ import os
 
 import cv2
 import numpy as np
+import torch
 
 from dcs_torchrl import presets
 from dcs_torchrl.envs import make_env
@@ -32,8 +33,11 @@ def cell(domain: str, task: str, column: int, size: int, seed: int, background_d
         background_dir=background_dir, height=size, width=size, seed=seed,
     )
     td = env.reset()
+    spec = env.action_spec
+    actions = torch.Generator().manual_seed(seed)  # the random actions follow --seed too
     for _ in range(steps):
-        td = env.rand_step(td)["next"]
+        action = spec.space.low + (spec.space.high - spec.space.low) * torch.rand(spec.shape, generator=actions)
+        td = env.step(td.set("action", action.to(spec.dtype)))["next"]
     frame = td["pixels"].numpy()
     env.close()
     return frame

@@ -24,6 +24,15 @@ def numbered_video(frames: int = 12, size: int = 32) -> np.ndarray:
     return np.stack([np.full((size, size, 3), 10 * i, np.uint8) for i in range(frames)])
 
 
+def tinted_video(index: int, frames: int = 10, size: int = 32) -> np.ndarray:
+    """Video ``index`` of a set of distinct clips: frame i is (10 * i, 20 + 25 * index, 0), so both
+    the clip and the frame shown can be read off the rendered sky (index < 10)."""
+    video = np.zeros((frames, size, size, 3), np.uint8)
+    video[..., 0] = 10 * np.arange(frames)[:, None, None]
+    video[..., 1] = 20 + 25 * index
+    return video
+
+
 def physics_of(env):
     """The dm_control physics under a suite env (or a plain DMControlEnv)."""
     from torchrl.envs import TransformedEnv

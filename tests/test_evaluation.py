@@ -29,6 +29,20 @@ def _policy(seed: int = 0):
     return TensorDictSequential(encoder, make_sac_actor(env.action_spec, encoder.feature_dim, hidden_dim=32))
 
 
+def _stepped_returns(policy, seed: int, episodes: int) -> list[float]:
+    """The returns of consecutive episodes on one seeded env, stepped and summed by hand."""
+    env, returns = _env(seed=seed), []
+    with torch.no_grad():
+        for _ in range(episodes):
+            td, total = env.reset(), 0.0
+            for _ in range(EPISODE_STEPS):
+                td = env.step(policy(td))
+                total += td["next", "reward"].item()
+                td = td["next"]
+            returns.append(total)
+    return returns
+
+
 def test_eval_result_statistics():
     result = EvalResult((1.0, 2.0, 6.0))
     assert result.mean == 3.0
@@ -48,7 +62,9 @@ def test_evaluate_runs_full_deterministic_episodes_and_is_reproducible():
     result = evaluate(_env(), counting_policy, 3, seed=1)
     assert len(steps) == 3 * EPISODE_STEPS  # every episode runs to dm_control's time limit
     assert result.episodes == 3 and len(result.returns) == 3
-    assert all(0.0 <= r <= EPISODE_STEPS * 8 for r in result.returns)
+    # each return is its own episode's reward sum (episodes start apart: the returns differ)
+    assert list(result.returns) == pytest.approx(_stepped_returns(policy, 1, 3), rel=1e-6)
+    assert len(set(result.returns)) == 3
     assert result.mean == pytest.approx(sum(result.returns) / 3)
     # deterministic policy + seeded env: the same returns again
     assert evaluate(_env(), policy, 3, seed=1).returns == result.returns

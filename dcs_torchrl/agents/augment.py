@@ -23,6 +23,8 @@ The number of augmented copies K (target) = M (Q-loss) is one knob, :data:`AUGME
 """
 from __future__ import annotations
 
+from dcs_torchrl.methods import AUGMENTATIONS
+
 from collections.abc import Sequence
 
 import torch
@@ -42,7 +44,7 @@ __all__ = [
 ]
 
 #: Augmented copies K = M of each augmentation setting (Stone et al. 2021, section 4).
-AUGMENTATION_COPIES: dict[str, int] = {"none": 0, "rad": 1, "drq": 2}
+AUGMENTATION_COPIES: dict[str, int] = {aug: copies for aug, (_, copies) in AUGMENTATIONS.items()}
 
 
 def augmentation_copies(aug: str) -> int:

@@ -13,8 +13,8 @@ encoder ``"pixels"`` (or ``"observation"``) -> ``"embedding"``; actor ``"embeddi
 ``"loc"``, ``"scale"``, ``"action"``; critic ``["embedding", "action"]`` ->
 ``"state_action_value"``.
 
-Initialisation follows DrQ: orthogonal weights and zero biases for every linear layer, PyTorch's
-default for the convolutions (DrQ's ``weight_init`` only touches ``nn.Linear``).
+Initialisation follows DrQ's ``utils.weight_init``: orthogonal weights and zero biases for every
+linear layer; orthogonal weights with the ReLU gain (sqrt 2) and zero biases for every convolution.
 
 Speed (see ``benchmarks/update_speed.py``): the 1/255 scaling is folded into the first
 convolution's weights (``conv(x, W / 255) == conv(x / 255, W)``, no pass over the input), the
@@ -49,9 +49,11 @@ __all__ = [
 
 
 def orthogonal_init(module: nn.Module) -> None:
-    """DrQ's initialisation: orthogonal weights and zero biases for ``nn.Linear`` layers."""
-    if isinstance(module, nn.Linear):
-        nn.init.orthogonal_(module.weight)
+    """DrQ's ``weight_init``: orthogonal ``nn.Linear`` weights (gain 1) and ``nn.Conv2d`` weights
+    (gain ``calculate_gain("relu")``), zero biases; other modules are left as they are."""
+    if isinstance(module, (nn.Linear, nn.Conv2d)):
+        gain = nn.init.calculate_gain("relu") if isinstance(module, nn.Conv2d) else 1.0
+        nn.init.orthogonal_(module.weight, gain)
         if module.bias is not None:
             nn.init.zeros_(module.bias)
 
@@ -147,7 +149,9 @@ class PixelEncoder(nn.Module):
         self.apply(orthogonal_init)
         if channels_last:
             self.convs.to(memory_format=torch.channels_last)
-        self._trunk = torch.compile(conv_trunk, dynamic=False) if compile else conv_trunk
+        # dynamic: one graph for every batch size (acting 1, update B, DrQ's 2B); a static graph
+        # recompiled per size until dynamo's recompile limit and then fell back to eager
+        self._trunk = torch.compile(conv_trunk, dynamic=True) if compile else conv_trunk
 
     def forward_conv(self, pixels: torch.Tensor) -> torch.Tensor:
         """The convolutional trunk: ``[N, C, H, W]`` -> ``[N, filters, side, side]``."""

@@ -10,7 +10,6 @@ for training runs): a finished evaluation is skipped, another one is refused.
 """
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import time
@@ -20,23 +19,13 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 from dcs_torchrl.experiments.grid import Evaluation
+from dcs_torchrl.methods import agent_class
 
-__all__ = ["AGENTS", "evaluate_checkpoint", "load_agent_class"]
+__all__ = ["evaluate_checkpoint", "load_agent_class"]
 
-# The agent class of each algorithm: (recipe file below recipes/, class name).
-AGENTS = {"sac": ("sac/sac.py", "SACAgent"), "qtopt": ("qtopt/qtopt.py", "QTOptAgent")}
-RECIPES = Path(__file__).resolve().parents[2] / "recipes"
-
-
-def load_agent_class(algo: str, recipes: str | os.PathLike = RECIPES) -> type:
-    """The recipe's agent class (``SACAgent``, ``QTOptAgent``), imported from its file."""
-    if algo not in AGENTS:
-        raise ValueError(f"unknown algorithm {algo!r}: choose one of {list(AGENTS)}.")
-    file, name = AGENTS[algo]
-    spec = importlib.util.spec_from_file_location(f"dcs_recipe_{algo}", Path(recipes) / file)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return getattr(module, name)
+def load_agent_class(algo: str) -> type:
+    """The agent class of ``algo`` (``"sac"``, ``"qtopt"``): :func:`dcs_torchrl.methods.agent_class`."""
+    return agent_class(algo)
 
 
 def _trained_results(train_dir: Path) -> dict:
@@ -69,9 +58,10 @@ def evaluate_checkpoint(
     import torch
 
     from dcs_torchrl.training import RunDirectory, load_latest, make_pixel_env, pixel_env
-    from dcs_torchrl.training.envs import env_options, env_settings, pixel_options
+    from dcs_torchrl.training.envs import close_env, env_options, env_settings, pixel_options
     from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, acting_on
     from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.pretrained import load_policy_state
 
     train_dir = Path(train_dir)
     trained = _trained_results(train_dir)
@@ -117,10 +107,10 @@ def evaluate_checkpoint(
             agent = load_agent_class(cfg.algo.name)(OmegaConf.merge(cfg, {"device": device}),
                                                     tuple(env.observation_spec["pixels"].shape[-3:]), spec,
                                                     eval_settings.action_repeat)
-            agent.load_state_dict(loaded[1]["agent"])
+            load_policy_state(agent, loaded[1])  # a training checkpoint or an exported agent
             policy = acting_on(agent.policy, device)
         result = evaluate(env, policy, episodes, seed=seed)
-        env.close()
+        close_env(env)
         config = OmegaConf.to_container(cfg)
         config.update(
             experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,

@@ -20,12 +20,12 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from dcs_torchrl.report.experiments import AXES, METHODS
+from dcs_torchrl import methods as registry
+from dcs_torchrl.report.experiments import AXES
 
 __all__ = ["NONE", "SETTINGS", "Point", "Evaluation", "Run", "expand", "method_parts", "override_value", "run_id", "select"]
 
 SETTINGS = {"static": False, "dynamic": True}
-_ALGOS = {"SAC": "sac", "QT-Opt": "qtopt"}
 
 
 def method_parts(method: str) -> tuple[str, str]:
@@ -35,10 +35,8 @@ def method_parts(method: str) -> tuple[str, str]:
         >>> method_parts("QT-Opt+DrQ"), method_parts("SAC")
         (('qtopt', 'drq'), ('sac', 'none'))
     """
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}: choose among {', '.join(METHODS)}.")
-    algo, _, aug = method.partition("+")
-    return _ALGOS[algo], aug.lower() or "none"
+    found = registry.method(method)
+    return found.algo, found.aug
 
 
 def override_value(value) -> str:

@@ -28,7 +28,7 @@ from omegaconf import DictConfig, OmegaConf
 from dcs_torchrl.experiments.grid import Run, expand, method_parts, override_value, select
 from dcs_torchrl.training.rundir import finished_results, flatten, write_json_atomic
 
-__all__ = ["StatusCallback", "grid_runs", "grid_status", "recipe_command", "run_job", "status_text"]
+__all__ = ["StatusCallback", "check_backgrounds", "grid_runs", "grid_status", "recipe_command", "run_job", "status_text"]
 
 RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 TRAIN_LOG = "train.log"
@@ -40,8 +40,26 @@ def _root(cfg: DictConfig) -> Path:
     return Path(cfg.root).expanduser().absolute()
 
 
+def check_backgrounds(budget: DictConfig) -> None:
+    """A budget compared with the paper (``requires_davis``) needs DAVIS 2017, or an explicit opt-in to
+    the stand-in videos; a ``background_dir`` must exist."""
+    if (budget.get("requires_davis", False) and budget.get("background_dir") is None
+            and not budget.get("stand_in_backgrounds", False)):
+        raise ValueError(
+            f"budget={budget.name} is compared with the paper's DAVIS 2017 backgrounds, and no DAVIS folder is set: "
+            "pass budget.background_dir=<DAVIS 2017 folder, e.g. ~/data/DAVIS/JPEGImages/480p>, or "
+            "budget.stand_in_backgrounds=true to run on the embedded stand-in videos (the report then marks every "
+            "background table and figure as not comparable to the paper's)."
+        )
+    folder = budget.get("background_dir")
+    if folder is not None and not Path(str(folder)).expanduser().is_dir():
+        raise FileNotFoundError(f"budget.background_dir={folder!r} is not a directory: point it at DAVIS 2017's "
+                                "JPEGImages/480p folder (or the DAVIS root).")
+
+
 def grid_runs(cfg: DictConfig) -> list[Run]:
     """Every run of the configured experiment and budget."""
+    check_backgrounds(cfg.budget)
     plain = {key: OmegaConf.to_container(cfg[key], resolve=True) for key in ("experiment", "budget", "axes", "unseen")}
     return expand(**plain)
 
@@ -57,8 +75,12 @@ _register_resolver()
 
 
 def recipe_settings(cfg: DictConfig) -> dict[str, object]:
-    """The budget's recipe overrides, flattened (``{"eval.episodes": 100, ...}``)."""
-    return flatten(OmegaConf.to_container(cfg.budget.recipe, resolve=True))
+    """The budget's recipe overrides, flattened (``{"eval.episodes": 100, ...}``), with its DAVIS folder."""
+    settings = flatten(OmegaConf.to_container(cfg.budget.recipe, resolve=True))
+    folder = cfg.budget.get("background_dir")
+    if folder is not None:
+        settings["env.background_dir"] = str(Path(str(folder)).expanduser().absolute())
+    return settings
 
 
 def recipe_command(run: Run, cfg: DictConfig) -> list[str]:

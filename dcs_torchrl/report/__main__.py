@@ -22,7 +22,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"results directory {str(args.results_dir)!r} does not exist")
     out = args.out if args.out is not None else args.results_dir / "report"
     report = build_report(args.results_dir, out, args.experiment, log=sys.stderr)
-    print(f"{len(report.loaded.runs)} runs, {len(report.loaded.skipped)} skipped; report: {out / 'report.md'}")
+    loaded = report.loaded
+    print(f"{len(loaded.runs)} runs, {len(loaded.left_out)} left out, {len(loaded.skipped)} skipped; "
+          f"report: {out / 'report.md'}")
     return 0
 
 

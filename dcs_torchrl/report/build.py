@@ -2,8 +2,9 @@
 
 Layout of ``out``::
 
-    report.md                     summary, skipped files, missing cells, links
-    runs.csv                      the tidy runs table (one row per loaded run)
+    report.md                     summary, skipped files, runs left out, missing cells, links
+    runs.csv                      the tidy runs table (one row per run in the report)
+    left_out.csv                  runs of another training length or evaluation count (if any)
     tables/benchmark_<b>.md|csv   b in none, easy, medium, blind (+ any other benchmark found)
     tables/interactions.md|csv
     tables/<exp>_curves.md|csv, tables/<exp>_half_score.csv   exp in robustness, training
@@ -12,6 +13,7 @@ Layout of ``out``::
 """
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,21 +82,66 @@ class _Writer:
         return rel
 
 
-def _steps_note(runs: pd.DataFrame) -> str:
-    counts = runs["steps"].value_counts().sort_index()
-    text = ", ".join(f"{int(s)} ({n} runs)" for s, n in counts.items())
-    return text + (" — **mixed lengths**: a cell may average runs trained for different numbers of steps"
-                   if len(counts) > 1 else "")
+def _values(column: pd.Series) -> str:
+    """``400``, or ``400 (3 runs), 800 (1 runs)`` when the runs differ (plain runs only)."""
+    counts = column.value_counts().sort_index()
+    if len(counts) == 1:
+        return str(int(counts.index[0]))
+    return ", ".join(f"{int(v)} ({n} runs)" for v, n in counts.items())
 
 
 def _summary(runs: pd.DataFrame) -> str:
     rows = []
     for experiment, g in runs.groupby(runs["experiment"].fillna("null (plain runs, in no table)"), sort=True):
         rows.append([experiment, str(len(g)), str(g["method"].nunique()), str(len(tasks_of(g))),
-                     str(g["seed"].nunique()), _steps_note(g)])
+                     str(g["seed"].nunique()), _values(g["steps"]), _values(g["episodes"])])
     if not rows:
         return "No runs."
-    return md_table(["Experiment", "Runs", "Methods", "Tasks", "Seeds", "Steps"], rows, "lrrrrl")
+    return md_table(["Experiment", "Runs", "Methods", "Tasks", "Seeds", "Steps", "Eval episodes"], rows, "lrrrrrr")
+
+
+def _left_out_md(loaded: Loaded, w: _Writer) -> list[str]:
+    """What was left out for another ``(steps, eval.episodes)`` than the report's; writes left_out.csv."""
+    md = ["## Runs left out: another training length or evaluation count", ""]
+    if loaded.budget is None:
+        return md + ["None (no runs of an experiment).", ""]
+    steps, episodes = loaded.budget
+    used = f"`steps` = {steps} and `eval.episodes` = {episodes}"
+    if loaded.left_out.empty:
+        return md + [f"None: every run of an experiment has {used}.", ""]
+    w.csv("left_out.csv", loaded.left_out)
+    md += [f"Tables and figures use only runs with {used} (the most runs); runs of an experiment with another "
+           "training length or number of evaluation episodes are left out, never averaged in or compared "
+           "([left_out.csv](left_out.csv)):", ""]
+    for (s, e), g in loaded.left_out.groupby(["steps", "episodes"], sort=True):
+        per_experiment = ", ".join(f"{x} {n}" for x, n in g["experiment"].value_counts().sort_index().items())
+        md.append(f"- `steps` = {s}, `eval.episodes` = {e}: {len(g)} runs ({per_experiment})")
+    return md + [""]
+
+
+def _shown_path(results_dir: str | Path, out: Path) -> str:
+    """The results directory relative to the report's directory (never a machine's absolute path)."""
+    try:
+        return Path(os.path.relpath(Path(results_dir).resolve(), out.resolve())).as_posix()
+    except ValueError:  # another drive (Windows)
+        return Path(results_dir).name
+
+
+STAND_IN = ("Backgrounds: the embedded stand-in videos, not DAVIS 2017 — background results are not "
+            "comparable to the paper's")
+
+
+def stand_in_note(runs: pd.DataFrame) -> str:
+    """:data:`STAND_IN` if any of ``runs`` trained or evaluated on the embedded stand-in videos, else ``""``."""
+    return STAND_IN if "backgrounds" in runs and (runs["backgrounds"] == "stand-in").any() else ""
+
+
+def _stand_in_md(runs: pd.DataFrame) -> list[str]:
+    note = stand_in_note(runs)
+    if not note:
+        return []
+    n = int((runs["backgrounds"] == "stand-in").sum())
+    return [f"**{note}** ({n} runs of this section).", ""]
 
 
 def _missing_md(lines: list[str]) -> list[str]:
@@ -137,7 +184,8 @@ def _benchmarks(runs: pd.DataFrame, inter: pd.DataFrame, w: _Writer) -> list[str
     md += [BOLD_FOOTNOTE, ""]
     for dynamic in (False, True):
         rel = w.done(str(benchmark_figure(all_tables, inter, dynamic,
-                                          w.report.out / f"figures/benchmarks_{setting_name(dynamic)}.png")
+                                          w.report.out / f"figures/benchmarks_{setting_name(dynamic)}.png",
+                                          note=stand_in_note(select(runs, experiment="benchmarks")))
                          .relative_to(w.report.out)))
         md += [f"![benchmarks, {setting_name(dynamic)}]({rel})", ""]
     return md
@@ -159,7 +207,8 @@ def _curves(runs: pd.DataFrame, experiment: str, w: _Writer) -> list[str]:
     w.text(f"{name}.md", curves_mod.curves_markdown(curves, experiment))
     w.csv(f"{name}.csv", curves)
     w.csv(f"tables/{experiment}_half_score.csv", half)
-    fig = w.done(str(curves_figure(curves, experiment, w.report.out / f"figures/{experiment}.png")
+    fig = w.done(str(curves_figure(curves, experiment, w.report.out / f"figures/{experiment}.png",
+                                   note=stand_in_note(select(runs, experiment=experiment)))
                      .relative_to(w.report.out)))
     return [f"Tables: [curves]({name}.md) ([csv]({name}.csv)), "
             f"[half-score points](tables/{experiment}_half_score.csv)", "", f"![{experiment}]({fig})", "",
@@ -191,6 +240,9 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
     if log is not None:
         for s in loaded.skipped:
             print(f"skipped {s.path}: {s.reason}", file=log)
+        for (s, e), g in loaded.left_out.groupby(["steps", "episodes"], sort=True):
+            print(f"left out {len(g)} runs with steps={s}, eval.episodes={e} (the report uses "
+                  f"steps={loaded.budget[0]}, eval.episodes={loaded.budget[1]})", file=log)
     report = Report(out=Path(out), loaded=loaded)
     report.out.mkdir(parents=True, exist_ok=True)
     w = _Writer(report)
@@ -198,14 +250,17 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
     w.csv("runs.csv", runs)
     inter = interactions_table(runs, expected_tasks(runs))
     md = ["# Distracting Control Suite: results report", "",
-          f"Results directory: `{results_dir}` — {len(runs)} runs loaded, {len(loaded.skipped)} files skipped "
-          "([all runs](runs.csv)).", "", _summary(runs), "", "## Skipped files", ""]
+          f"Results directory: `{_shown_path(results_dir, report.out)}` (relative to this report) — {len(runs)} "
+          f"runs loaded, {len(loaded.left_out)} left out, {len(loaded.skipped)} files skipped "
+          "([all runs](runs.csv)).", "", *_stand_in_md(runs), _summary(runs), "", "## Skipped files", ""]
     md += [f"- `{s.path}`: {s.reason}" for s in loaded.skipped] or ["None."]
     md.append("")
+    md += _left_out_md(loaded, w)
     for name in REPORTED if experiment is None else (experiment,):
         md += [f"## {TITLES[name]}", ""]
         if name == "interactions":
             body, missing = _interactions(runs, inter, w)
+            md += _stand_in_md(runs[runs["experiment"].isin(["benchmarks", "training"])])
             md += body
             report.missing[name] = missing
             md += _missing_md(missing)
@@ -213,6 +268,7 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
         if select(runs, experiment=name).empty:
             md += [f"No results for experiment `{name}`.", ""]
         else:
+            md += _stand_in_md(select(runs, experiment=name))
             md += _benchmarks(runs, inter, w) if name == "benchmarks" else _curves(runs, name, w)
         report.missing[name] = missing_cells(runs, name)
         md += _missing_md(report.missing[name])

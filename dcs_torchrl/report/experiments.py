@@ -9,6 +9,7 @@ import re
 from dataclasses import dataclass
 from types import MappingProxyType
 
+from dcs_torchrl.methods import METHODS as _METHODS
 from dcs_torchrl.presets import BENCHMARKS, TASKS
 
 __all__ = [
@@ -25,8 +26,8 @@ __all__ = [
     "task_label",
 ]
 
-# The six baselines, in the paper's row order.
-METHODS: tuple[str, ...] = ("SAC", "SAC+RAD", "SAC+DrQ", "QT-Opt", "QT-Opt+RAD", "QT-Opt+DrQ")
+# The six baselines, in the paper's row order (dcs_torchrl.methods).
+METHODS: tuple[str, ...] = tuple(_METHODS)
 
 # The paper's six tasks in its column order, and its column headers.
 TASK_ORDER: tuple[tuple[str, str], ...] = tuple(TASKS)

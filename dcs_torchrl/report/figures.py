@@ -45,13 +45,14 @@ def _method_handles(methods) -> list:
     return [Line2D([], [], color=METHOD_COLORS[m], lw=2.5, label=m) for m in methods]
 
 
-def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path) -> Path:
+def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "") -> Path:
     """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG.
 
     Args:
         curves: :func:`~dcs_torchrl.report.curves.curve_table` of the experiment.
         experiment: ``robustness`` or ``training``.
         path: the PNG to write.
+        note: a line under the title (e.g. that the backgrounds are stand-in videos).
     """
     panels = EXPERIMENTS[experiment]
     fig = Figure(figsize=(4.2 * len(panels), 4.0))
@@ -87,12 +88,13 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path) -> Pa
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False, fontsize=10)
     titles = {"robustness": "Trained without distractions, evaluated with one distraction",
               "training": "Trained and evaluated with one distraction"}
-    fig.suptitle(f"{titles.get(experiment, experiment)} (mean ± s.e. over seeds)", fontsize=12)
+    fig.suptitle(f"{titles.get(experiment, experiment)} (mean ± s.e. over seeds)" + (f"\n{note}" if note else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     return _save(fig, path)
 
 
-def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: bool, path: str | Path) -> Path:
+def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: bool, path: str | Path,
+                     note: str = "") -> Path:
     """Bars per benchmark and method for one setting, with expected-score stars and paper markers.
 
     Args:
@@ -100,6 +102,7 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
         interactions: :func:`~dcs_torchrl.report.interactions.interactions_table`.
         dynamic: the setting to plot (the no-distraction benchmark appears in both).
         path: the PNG to write.
+        note: a line under the title (e.g. that the backgrounds are stand-in videos).
     """
     means = tables[(tables.domain == MEAN_DOMAIN) & (tables.dynamic.isna() | (tables.dynamic == dynamic))]
     benchmarks = [b for b in BENCHMARK_ORDER if b in set(means["benchmark"])]
@@ -130,7 +133,7 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     ax.set_ylabel(YLABEL)
     ax.set_ylim(bottom=0)
     ax.grid(axis="y", alpha=0.3)
-    ax.set_title(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds")
+    ax.set_title(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""))
     markers = [
         Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)"),
         Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label="paper: expected"),

@@ -2,20 +2,26 @@
 
 The schema is ``docs/results_format.md``. A file that does not parse, lacks a required key,
 has a value of the wrong type or repeats a run already read (same experiment, method, task,
-setting and seed) is *skipped* and listed with its reason, never averaged in.
+setting, seed, steps and evaluation episodes) is *skipped* and listed with its reason, never
+averaged in.
+
+The tables compare and average runs across cells (bold, mean over tasks, interactions), so the
+report uses one training length and evaluation count: the ``(steps, eval.episodes)`` of most
+runs in an experiment. Runs with other values are *left out* (:attr:`Loaded.left_out`), never
+averaged in; plain runs (experiment null) are in no table and always kept.
 """
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
 from dcs_torchrl.report.experiments import AXES, METHODS
 
-__all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run"]
+__all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run", "one_budget"]
 
 RESULTS_FILE = "results.json"
 SCHEMA = 1
@@ -47,10 +53,13 @@ REQUIRED_SWEEP: dict[str, tuple] = {"axis": (str,), "value": (int, float, str), 
 # One row per run; `score` is eval.mean, `score_stderr` eval.stderr (over episodes).
 RUN_COLUMNS = (
     "path", "experiment", "method", "algo", "aug", "domain", "task", "seed", "steps", "wall_time",
-    "axis", "value", "dynamic", "eval_split", "score", "score_stderr", "episodes",
+    "axis", "value", "dynamic", "eval_split", "score", "score_stderr", "episodes", "backgrounds",
 )
 # Two runs with the same values here are the same run.
-RUN_KEY = ("experiment", "method", "domain", "task", "axis", "value", "dynamic", "eval_split", "seed")
+RUN_KEY = ("experiment", "method", "domain", "task", "axis", "value", "dynamic", "eval_split", "seed", "steps",
+           "episodes")
+# A run's budget: runs that differ here are never averaged or compared (one_budget).
+BUDGET = ("steps", "episodes")
 
 
 @dataclass(frozen=True)
@@ -71,12 +80,18 @@ class Loaded:
     """What :func:`load_results` found.
 
     Attributes:
-        runs: one row per valid run, columns :data:`RUN_COLUMNS`, sorted by path.
-        skipped: every file left out, sorted by path.
+        runs: one row per valid run of the report's budget, columns :data:`RUN_COLUMNS`, sorted
+            by path.
+        skipped: every file left out as invalid or duplicate, sorted by path.
+        left_out: valid runs of experiments with another ``(steps, episodes)`` than ``budget``,
+            same columns as ``runs``.
+        budget: the ``(steps, episodes)`` of the experiment runs in ``runs`` (None: no such run).
     """
 
     runs: pd.DataFrame
     skipped: tuple[Skipped, ...]
+    left_out: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(RUN_COLUMNS)))
+    budget: tuple[int, int] | None = None
 
 
 class _Invalid(ValueError):
@@ -174,7 +189,51 @@ def parse_run(data: object, path: str = "") -> dict:
         "steps": data["steps"], "wall_time": float(data["wall_time"]), "axis": axis, "value": value,
         "dynamic": dynamic, "eval_split": split, "score": float(data["eval"]["mean"]),
         "score_stderr": float(data["eval"]["stderr"]), "episodes": data["eval"]["episodes"],
+        "backgrounds": backgrounds(data["train_env"], data["eval_env"]),
     }
+
+
+def backgrounds(*envs: dict) -> str:
+    """Which background videos a run saw (trained or evaluated): ``"none"``, ``"folder"`` (a
+    ``background_dir``: DAVIS 2017 or the user's videos) or ``"stand-in"`` (the embedded default
+    videos, not the paper's DAVIS backgrounds).
+
+    Examples:
+        >>> backgrounds({"num_videos": 4, "background_dir": None}, {"num_videos": 0})
+        'stand-in'
+        >>> backgrounds({"num_videos": 0}, {}), backgrounds({"num_videos": 8, "background_dir": "/d"})
+        ('none', 'folder')
+    """
+    used = [env for env in envs if (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) != 0]
+    if not used:
+        return "none"
+    return "folder" if all(env.get("background_dir") for env in used) else "stand-in"
+
+
+def one_budget(runs: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, tuple[int, int] | None]:
+    """Splits the runs of experiments by ``(steps, episodes)``: keeps those of most runs.
+
+    Ties go to the most steps, then the most evaluation episodes. Plain runs (experiment null)
+    are always kept.
+
+    Returns:
+        ``(kept, left_out, budget)``, budget the kept ``(steps, episodes)`` (None without
+        experiment runs).
+
+    Examples:
+        >>> runs = pd.DataFrame({"experiment": ["benchmarks"] * 3 + [None], "steps": [400, 400, 800, 9],
+        ...                      "episodes": [2, 2, 2, 1]})
+        >>> kept, left_out, budget = one_budget(runs)
+        >>> len(kept), left_out["steps"].tolist(), budget
+        (3, [800], (400, 2))
+    """
+    in_experiment = runs["experiment"].notna()
+    if not in_experiment.any():
+        return runs, runs.iloc[0:0], None
+    counts = runs[in_experiment].groupby(list(BUDGET)).size()
+    budget = max(counts.index, key=lambda b: (counts[b], b))
+    same = (runs["steps"] == budget[0]) & (runs["episodes"] == budget[1])
+    return runs[same | ~in_experiment], runs[~same & in_experiment], (int(budget[0]), int(budget[1]))
 
 
 def load_results(root: str | Path) -> Loaded:
@@ -203,7 +262,7 @@ def load_results(root: str | Path) -> Loaded:
         try:
             text = file.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as err:
-            skipped.append(Skipped(rel, f"unreadable: {err}"))
+            skipped.append(Skipped(rel, f"unreadable: {getattr(err, 'strerror', None) or err}"))
             continue
         try:
             row = parse_run(json.loads(text), rel)
@@ -215,10 +274,13 @@ def load_results(root: str | Path) -> Loaded:
             continue
         key = tuple(row[k] for k in RUN_KEY)
         if key in seen:
-            skipped.append(Skipped(rel, f"duplicate of {seen[key]} (same experiment, method, task, setting and seed)"))
+            skipped.append(Skipped(rel, f"duplicate of {seen[key]} (same experiment, method, task, setting, seed, "
+                                        "steps and evaluation episodes)"))
             continue
         seen[key] = rel
         rows.append(row)
     runs = pd.DataFrame(rows, columns=list(RUN_COLUMNS))
     runs = runs.astype({"seed": "int64", "steps": "int64", "score": "float64"}) if len(runs) else runs
-    return Loaded(runs=runs, skipped=tuple(skipped))
+    kept, left_out, budget = one_budget(runs)
+    return Loaded(runs=kept.reset_index(drop=True), skipped=tuple(skipped),
+                  left_out=left_out.reset_index(drop=True), budget=budget)

@@ -37,9 +37,10 @@ BENCHMARK_COLUMNS = (
 BOLD_FOOTNOTE = (
     f"Mean ± standard error over seeds (the paper: {SEEDS} seeds; `(n=k)` marks a cell with another "
     "count, a single seed has no standard error). **Bold**: the highest mean, and every result not "
-    f"significantly below it at p < {ALPHA:g} by Welch's one-sided t-test over seeds "
-    "(`scipy.stats.ttest_ind(equal_var=False, alternative='greater')`); results with a single "
-    "seed cannot be tested and are bold only if they have the highest mean. Mean: per seed, the "
+    f"significantly below it at p < {ALPHA:g} by a one-sided z-test on mean ± s.e. "
+    "(z = (best − mean) / √(s.e.best² + s.e.²), p = 1 − Φ(z): the rule that reproduces every bold mark "
+    "of the paper's tables); results with a single seed have no standard error, cannot be tested and "
+    "are bold only if they have the highest mean. Mean: per seed, the "
     "mean over the tasks of the table, then mean ± s.e. over the seeds that have every task."
 )
 

@@ -5,13 +5,13 @@
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
 from dcs_torchrl.training.checkpoint import CheckpointError, load_latest, save_checkpoint
 from dcs_torchrl.training.envs import make_pixel_env, pixel_env
-from dcs_torchrl.training.loop import AUGMENTATIONS, METHODS, method_name, train
+from dcs_torchrl.training.loop import train
 from dcs_torchrl.training.metrics import MetricsLogger, read_metrics
 from dcs_torchrl.training.replay import FrameStackReplayBuffer
 from dcs_torchrl.training.rundir import RunDirectory, RunMismatchError
 
 __all__ = [
-    "AUGMENTATIONS", "CheckpointError", "FrameStackReplayBuffer", "LossAgent", "METHODS", "MetricsLogger",
-    "RunDirectory", "RunMismatchError", "load_latest", "make_pixel_env", "method_name", "pixel_env",
+    "CheckpointError", "FrameStackReplayBuffer", "LossAgent", "MetricsLogger",
+    "RunDirectory", "RunMismatchError", "load_latest", "make_pixel_env", "pixel_env",
     "pixel_networks", "read_metrics", "save_checkpoint", "train",
 ]

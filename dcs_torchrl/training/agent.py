@@ -52,7 +52,7 @@ class LossAgent:
     def __init__(self, loss: LossModule, policy: TensorDictModuleBase, *, tau: float, device: str = "cpu"):
         self.device = torch.device(device)
         self.loss = loss.to(self.device)
-        self.policy = policy
+        self.policy = policy.to(self.device)  # what acts too: e.g. CEM's action bounds (buffers)
         self.target_updater = SoftUpdate(self.loss, tau=tau)
         self.optimisers: dict[str, torch.optim.Optimizer] = {}
 

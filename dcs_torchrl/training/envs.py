@@ -1,10 +1,17 @@
-"""The recipes' pixel envs: suite envs in ``ParallelEnv`` workers, channel-first, frame-stacked.
+"""The recipes' pixel envs: suite envs, channel-first, frame-stacked, batched.
 
-Each worker builds the whole suite env (:func:`dcs_torchrl.make_env`) and its pixel handling
-(DrQ's: HWC uint8 -> CHW uint8, ``S`` frames stacked on the channels, the first frame repeated
-at a reset) inside its own process (``spawn``: EGL contexts do not survive ``fork``), so only the
-stacked uint8 observation crosses the process boundary. The batched env gets a ``RewardSum``
-(``"episode_reward"``) for logging.
+Each env is the whole suite env (:func:`dcs_torchrl.make_env`) and its pixel handling (DrQ's:
+HWC uint8 -> CHW uint8, ``S`` frames stacked on the channels, the first frame repeated at a
+reset). One env runs in this process (a ``SerialEnv`` of one); several run in ``ParallelEnv``
+workers, each building its env in its own process (``spawn``: EGL contexts do not survive
+``fork``), so only the stacked uint8 observation crosses the process boundary. The batched env
+gets a ``RewardSum`` (``"episode_reward"``) for logging.
+
+Threads: TorchRL's ``ParallelEnv`` lowers this process's torch threads to ``threads - workers``
+when its workers start and raises them when it closes. The recipes' update then ran on one of
+two cores (docs/agents.md, "Where the loop's time goes"). :func:`make_pixel_env` passes this
+process's thread count to the ``ParallelEnv`` and :func:`close_env` restores it after closing,
+so whatever the user chose (``OMP_NUM_THREADS``, ``torch.set_num_threads``) stays in force.
 """
 from __future__ import annotations
 
@@ -12,12 +19,13 @@ import functools
 from collections.abc import Mapping
 from pathlib import Path
 
+import torch
 from omegaconf import OmegaConf
-from torchrl.envs import CatFrames, Compose, ParallelEnv, PermuteTransform, RewardSum, TransformedEnv
+from torchrl.envs import CatFrames, Compose, EnvBase, ParallelEnv, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
 from dcs_torchrl.envs import EnvSettings, make_env, resolve_settings
 
-__all__ = ["ENV_KEYS", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options"]
+__all__ = ["ENV_KEYS", "close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options"]
 
 # The make_env settings a recipe's ``env`` / ``eval_env`` config groups may set.
 ENV_KEYS = (
@@ -78,10 +86,31 @@ def make_pixel_env(
     image_size: int = 84,
     render_profile: str = "default",
 ) -> TransformedEnv:
-    """``num_workers`` suite envs in a ``ParallelEnv`` (spawned workers), seeded ``seed, seed + 1, ...``."""
+    """``num_workers`` suite envs, batch size ``[num_workers]``, seeded ``seed, seed + 1, ...``.
+
+    One env runs in this process (``SerialEnv``): no worker to wake and no process spinning on
+    the other core while it renders. Several run in spawned ``ParallelEnv`` workers, this
+    process keeping its torch thread count (close with :func:`close_env` to keep it then too).
+    """
     if num_workers < 1:
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")
     make = functools.partial(pixel_env, settings, frame_stack=frame_stack, image_size=image_size, render_profile=render_profile)
-    env = TransformedEnv(ParallelEnv(num_workers, make, mp_start_method="spawn"), RewardSum())
+    if num_workers == 1:
+        batched = SerialEnv(1, make)
+    else:
+        batched = ParallelEnv(num_workers, make, mp_start_method="spawn", num_threads=torch.get_num_threads())
+    env = TransformedEnv(batched, RewardSum())
     env.set_seed(seed)
     return env
+
+
+def close_env(env: EnvBase | None) -> None:
+    """Closes ``env`` (if any and not closed) and keeps this process's torch thread count.
+
+    (``ParallelEnv.close`` raises it by the number of workers, up to torch's initial pool.)
+    """
+    if env is None:
+        return
+    threads = torch.get_num_threads()
+    env.close(raise_if_closed=False)
+    torch.set_num_threads(threads)

@@ -9,6 +9,7 @@ agent steps (one action = ``action_repeat`` frames); DrQ's one update per agent 
 """
 from __future__ import annotations
 
+import logging
 import random
 import sys
 import time
@@ -25,30 +26,22 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.collectors import Collector
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from tqdm import tqdm
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from dcs_torchrl.evaluation import evaluate
+from dcs_torchrl.methods import method_name
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import ENV_KEYS, env_options, env_settings, make_pixel_env, pixel_options
+from dcs_torchrl.training.envs import ENV_KEYS, close_env, env_options, env_settings, make_pixel_env, pixel_options
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, read_metrics
 from dcs_torchrl.training.replay import FrameStackReplayBuffer
 from dcs_torchrl.training.rundir import RunDirectory
+from dcs_torchrl.training.timing import PhaseTimer
 
-__all__ = ["AUGMENTATIONS", "Agent", "METHODS", "acting_on", "method_name", "train"]
+__all__ = ["Agent", "acting_on", "train"]
 
-AUGMENTATIONS = ("none", "rad", "drq")
-METHODS = {"sac": "SAC", "qtopt": "QT-Opt"}
-_AUG_SUFFIX = {"none": "", "rad": "+RAD", "drq": "+DrQ"}
 EVAL_SEED_OFFSET = 10_000  # the evaluation envs' own seeds: seed + 10_000, + 1, ...
-
-
-def method_name(algo: str, aug: str) -> str:
-    """The paper's name of a method, e.g. ``method_name("qtopt", "rad") == "QT-Opt+RAD"``."""
-    if algo not in METHODS:
-        raise ValueError(f"unknown algorithm {algo!r}: choose one of {list(METHODS)} (algo.name=...).")
-    if aug not in AUGMENTATIONS:
-        raise ValueError(f"unknown augmentation {aug!r}: choose one of {list(AUGMENTATIONS)} (algo.aug=...).")
-    return METHODS[algo] + _AUG_SUFFIX[aug]
+log = logging.getLogger(__name__)  # a recipe's console and <recipe>.log in its run directory (Hydra)
 
 
 class Agent(Protocol):
@@ -128,7 +121,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     run.claim()
     done = run.finished(cfg.total_frames)
     if done is not None:
-        print(f"{run.path}: already finished ({done['steps']} frames, eval {done['eval']['mean']:.1f}); nothing to do.")
+        log.info(f"{run.path}: already finished ({done['steps']} frames, eval {done['eval']['mean']:.1f}); nothing to do.")
         return done
 
     repeat = train_settings.action_repeat
@@ -160,10 +153,10 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
             buffer.load_state_dict(state["buffer"])
             counters, wandb_id = state["counters"], state.get("wandb_id")
             _set_rng_state(state["rng"])
-            print(f"{run.path}: resuming from the checkpoint at {frames} frames.")
+            log.info(f"{run.path}: resuming from the checkpoint at {frames} frames.")
             resume = (counters["metrics_rows"], resumed[0])
         elif (run.path / "metrics.csv").exists():  # this run (claim() checked), stopped before its first checkpoint
-            print(f"{run.path}: restarting from frame 0 (stopped before its first checkpoint).")
+            log.info(f"{run.path}: restarting from frame 0 (stopped before its first checkpoint).")
             resume = (0, 0)
         else:
             resume = None
@@ -187,46 +180,58 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
             **({} if cfg.device == "cpu" else {"policy_device": cfg.device, "env_device": "cpu", "storing_device": "cpu"}),
         )
         losses: dict[str, list[float]] = defaultdict(list)
+        timer = PhaseTimer()  # time/<phase>_ms rows: where each agent step's wall time goes
         last_log, tick = counters["steps"], time.time()
         bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress,
                     dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
-        for data in collector:
-            if counters["steps"] >= total_steps:
-                break
-            buffer.extend(data)
-            counters["steps"] += data.numel()
-            frames = counters["steps"] * repeat
-            finished = data["next", "done"].squeeze(-1)
-            returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
-            for episode_return in returns:
-                counters["episodes"] += 1
-                logger.log(frames, {"train/episode_return": episode_return, "train/episodes": counters["episodes"]})
-            if counters["steps"] >= cfg.collector.seed_steps:
-                for _ in range(data.numel() * cfg.algo.updates_per_step):
-                    for name, value in agent.update(buffer.sample(), counters["updates"]).items():
-                        losses[name].append(float(torch.as_tensor(value).detach()))
-                    counters["updates"] += 1
-            bar.update(data.numel() * repeat)
-            if returns:
-                bar.set_postfix(ret=f"{returns[-1]:.0f}", upd=counters["updates"], refresh=False)
-            if frames - last_log * repeat >= cfg.logger.interval or counters["steps"] >= total_steps:
-                elapsed = max(time.time() - tick, 1e-9)
-                logger.log(frames, {
-                    **{name: sum(v) / len(v) for name, v in losses.items()},
-                    "time/fps": (counters["steps"] - last_log) * repeat / elapsed,
-                    "time/elapsed": time.time() - start_time, "train/updates": counters["updates"],
-                    "train/buffer_gb": buffer.nbytes() / 1e9,
-                })
-                losses.clear()
-                last_log, tick = counters["steps"], time.time()
-            if frames >= counters["next_eval"] and counters["steps"] < total_steps:
-                result = evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
-                logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
-                bar.write(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
-                counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
-            if frames >= counters["next_checkpoint"] and counters["steps"] < total_steps:
-                checkpoint()
-                counters["next_checkpoint"] += cfg.checkpoint.interval * (1 + (frames - counters["next_checkpoint"]) // cfg.checkpoint.interval)
+        with logging_redirect_tqdm():  # log lines above the progress bar
+            batches = iter(collector)
+            while counters["steps"] < total_steps:
+                with timer("collect"):  # the policy's actions and the env steps
+                    data = next(batches, None)
+                if data is None:
+                    break
+                with timer("extend"):
+                    buffer.extend(data)
+                counters["steps"] += data.numel()
+                frames = counters["steps"] * repeat
+                finished = data["next", "done"].squeeze(-1)
+                returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
+                for episode_return in returns:
+                    counters["episodes"] += 1
+                    logger.log(frames, {"train/episode_return": episode_return, "train/episodes": counters["episodes"]})
+                if counters["steps"] >= cfg.collector.seed_steps:
+                    for _ in range(data.numel() * cfg.algo.updates_per_step):
+                        with timer("sample"):
+                            batch = buffer.sample()
+                        with timer("update"):
+                            for name, value in agent.update(batch, counters["updates"]).items():
+                                losses[name].append(float(torch.as_tensor(value).detach()))
+                        counters["updates"] += 1
+                bar.update(data.numel() * repeat)
+                if returns:
+                    bar.set_postfix(ret=f"{returns[-1]:.0f}", upd=counters["updates"], refresh=False)
+                if frames - last_log * repeat >= cfg.logger.interval or counters["steps"] >= total_steps:
+                    elapsed = max(time.time() - tick, 1e-9)
+                    logger.log(frames, {
+                        **{name: sum(v) / len(v) for name, v in losses.items()},
+                        **timer.report(counters["steps"] - last_log),
+                        "time/fps": (counters["steps"] - last_log) * repeat / elapsed,
+                        "time/elapsed": time.time() - start_time, "train/updates": counters["updates"],
+                        "train/buffer_gb": buffer.nbytes() / 1e9,
+                    })
+                    losses.clear()
+                    last_log, tick = counters["steps"], time.time()
+                if frames >= counters["next_eval"] and counters["steps"] < total_steps:
+                    with timer("eval"):
+                        result = evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
+                    logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
+                    log.info(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
+                    counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
+                if frames >= counters["next_checkpoint"] and counters["steps"] < total_steps:
+                    with timer("checkpoint"):
+                        checkpoint()
+                    counters["next_checkpoint"] += cfg.checkpoint.interval * (1 + (frames - counters["next_checkpoint"]) // cfg.checkpoint.interval)
         bar.close()
         collector.shutdown()
 
@@ -234,7 +239,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
         checkpoint()  # before the final evaluation's rows: a resumed run logs them once
         result = evaluate(eval_env, eval_policy, cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
         logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
-        print(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
+        log.info(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
         if cfg.eval.video:
             _record_episode(eval_env, eval_policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
         logger.close()
@@ -247,7 +252,6 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
         }
     finally:  # an error must not leave spawned env workers behind (the process would never exit)
         for e in (env, eval_env):
-            if e is not None:
-                e.close(raise_if_closed=False)
+            close_env(e)
     run.write_results(results)
     return results

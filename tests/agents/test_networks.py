@@ -50,6 +50,11 @@ def test_pixel_encoder_architecture():
     w = enc.linear.weight
     torch.testing.assert_close(w @ w.T, torch.eye(50), atol=1e-4, rtol=0)
     assert not enc.linear.bias.any()
+    # ... and orthogonal convolutions with the ReLU gain (rows: output channels, flattened)
+    for conv in enc.convs:
+        rows = conv.weight.flatten(1)
+        torch.testing.assert_close(rows @ rows.T, 2.0 * torch.eye(32), atol=1e-4, rtol=0)
+        assert not conv.bias.any()
 
 
 @pytest.mark.parametrize("channels_last", [False, True])
@@ -58,7 +63,12 @@ def test_pixel_encoder_matches_reference_math(channels_last):
     enc = PixelEncoder(9, channels_last=channels_last)
     pixels = torch.randint(0, 256, (3, 9, 84, 84), dtype=torch.uint8)
     out = enc(pixels)
-    assert out.shape == (3, 50) and out.abs().max() <= 1.0
+    assert out.shape == (3, 50)
+    # tanh of a layer-normalised embedding: atanh(out) has mean 0 and standard deviation 1 over the
+    # 50 features (checked apart from the reference, which shares the encoder's own LayerNorm)
+    features = out.double().atanh()
+    torch.testing.assert_close(features.mean(-1), torch.zeros(3, dtype=torch.float64), atol=1e-3, rtol=0)
+    torch.testing.assert_close(features.std(-1, unbiased=False), torch.ones(3, dtype=torch.float64), atol=1e-2, rtol=0)
     torch.testing.assert_close(out, _reference_encoder(enc, pixels), atol=1e-5, rtol=1e-4)
     torch.testing.assert_close(enc(pixels.float()), out)  # uint8 and float inputs agree
 
@@ -87,6 +97,9 @@ def test_mlp_depth_and_init():
     linears = [m for m in net if isinstance(m, nn.Linear)]
     assert [(l.in_features, l.out_features) for l in linears] == [(10, 64), (64, 64), (64, 3)]
     assert all(not l.bias.any() for l in linears)
+    for layer in linears:  # orthogonal: W W^T = I on the smaller side
+        w = layer.weight if layer.out_features <= layer.in_features else layer.weight.T
+        torch.testing.assert_close(w @ w.T, torch.eye(w.shape[0]), atol=1e-4, rtol=0)
 
 
 def test_tanh_gaussian_head_log_std_bounds():

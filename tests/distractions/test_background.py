@@ -9,7 +9,7 @@ from torchrl.envs import Compose, DMControlEnv, TransformedEnv
 from dcs_torchrl import BackgroundDistraction, RenderPixels
 from dcs_torchrl.distractions.background import bounce
 from dcs_torchrl.render import render_context
-from dcs_test_utils import numbered_video, physics_of, solid_video
+from dcs_test_utils import numbered_video, physics_of, solid_video, tinted_video
 
 RED = (255, 0, 0)
 
@@ -102,16 +102,20 @@ def test_frame_skip_plays_frame_skip_frames_per_agent_step():
     assert torch.equal(a, b[3::4])
 
 
-def test_episode_start_is_uniform_over_videos_frames_and_directions():
-    videos = [numbered_video(10) for _ in range(4)] + [numbered_video(10) for _ in range(4)]
-    env = background_env(videos, dynamic=True, num_videos=4)
+def test_episode_start_is_uniform_over_the_first_b_videos_frames_and_directions():
+    """num_videos = 4 of 8 distinct clips: every episode shows one of the first four, and the
+    rendered sky is the clip and frame that ("distractions", "background") reports."""
+    env = background_env([tinted_video(i) for i in range(8)], dynamic=True, num_videos=4)
     starts, directions = [], []
     for _ in range(400):
         td = env.reset()
-        starts.append(td["distractions", "background"].tolist())
+        video, frame = td["distractions", "background"].tolist()
+        red, green, _ = sky(td["pixels"]).tolist()
+        assert (red, green) == pytest.approx((10 * frame, 20 + 25 * video), abs=1.5)
+        starts.append((video, frame))
         directions.append(env.transform[0]._direction)
     starts = np.array(starts)
-    assert starts[:, 0].max() == 3  # only the first b = 4 videos
+    assert set(starts[:, 0].tolist()) == {0, 1, 2, 3}  # the first b = 4 videos of the list, all of them
     assert stats.chisquare(np.bincount(starts[:, 0], minlength=4)).pvalue > 0.001
     assert stats.chisquare(np.bincount(starts[:, 1], minlength=10)).pvalue > 0.001
     assert stats.binomtest(sum(d == 1 for d in directions), len(directions)).pvalue > 0.001

@@ -133,12 +133,18 @@ def test_shortest_look_at_is_smooth_through_the_pole():
     assert _looks_at(below, np.array([0.0, 0.0, 2.0]), np.zeros(3))
 
 
-@pytest.mark.parametrize("azimuth", [-math.pi / 2, -1.58, math.pi, math.pi / 2, -2.93, 0.0])
-def test_frame_turn_brings_the_camera_to_the_front(azimuth):
-    turn = cm.frame_turn(azimuth)
-    local = math.remainder(azimuth - turn, 2 * math.pi)
-    assert -3 * math.pi / 4 - 1e-9 <= local <= -math.pi / 4 + 1e-9
-    assert turn % (math.pi / 2) == pytest.approx(0.0, abs=1e-12) or turn % (math.pi / 2) == pytest.approx(math.pi / 2)
+@pytest.mark.parametrize("azimuth, turn", [
+    (-math.pi / 2, 0.0), (-1.58, 0.0), (0.0, math.pi / 2), (math.pi / 2, math.pi), (math.pi, 3 * math.pi / 2),
+    (2.5, 3 * math.pi / 2), (-2.93, -math.pi / 2),
+])
+def test_frame_turn_brings_the_camera_to_the_front(azimuth, turn):
+    """Seen in the turned frame (world = rotation_z(turn) @ local, as CameraDistraction uses it) the
+    camera is in the front quadrant, on the -y side where the paper's cameras are: |x| <= -y."""
+    assert cm.frame_turn(azimuth) == pytest.approx(turn, abs=1e-12)  # worked out by hand
+    to_world = cm.rotation_z(cm.frame_turn(azimuth))
+    assert np.allclose(np.abs(to_world).sum(0), 1.0)  # a quarter turn: world axes go to world axes
+    x, y, _ = to_world.T @ np.array(cm.sphere_to_cart(1.0, azimuth, 1.0))
+    assert y < 0 and abs(x) <= -y + 1e-9
 
 
 def test_paper_cameras_are_not_turned():

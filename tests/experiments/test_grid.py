@@ -19,8 +19,10 @@ EXPERIMENT_NAMES = ("robustness", "training", "benchmarks", "interactions")
 
 
 def config(experiment: str, budget: str = "paper", *overrides: str, root="/results"):
+    # the paper budget needs DAVIS or this opt-in (tests/report/test_backgrounds.py); the grid is the same
+    opt_in = ["budget.stand_in_backgrounds=true"] if budget == "paper" else []
     with initialize_config_dir(str(CONF), version_base=None):
-        return compose("config", [f"experiment={experiment}", f"budget={budget}", f"root={root}", *overrides],
+        return compose("config", [f"experiment={experiment}", f"budget={budget}", f"root={root}", *opt_in, *overrides],
                        return_hydra_config=True)
 
 

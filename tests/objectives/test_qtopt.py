@@ -106,6 +106,31 @@ def test_drq_target_and_loss_average_over_the_copies(action_spec, make_batch):
     torch.testing.assert_close(out["target_value"], y.mean(), rtol=1e-5, atol=1e-5)
 
 
+@pytest.mark.parametrize("copies", [0, 2])
+def test_a_time_limit_keeps_the_bootstrap_and_a_termination_drops_it(action_spec, make_batch, copies):
+    """done without terminated (every DM Control episode end: a time limit) still bootstraps,
+    y = r + gamma V(s'); terminated stops it, y = r."""
+    augmentation = ObservationNoise(0.1, in_keys=with_next_keys(["observation"])) if copies else None
+    loss = _loss(action_spec, copies=copies, augmentation=augmentation)
+    data = make_batch(6, pixels=False)
+
+    def run(done, terminated):
+        batch = data.clone()
+        batch["next", "done"].fill_(done)
+        batch["next", "terminated"].fill_(terminated)
+        torch.manual_seed(7)  # the same CEM samples (and augmentations) in every call
+        return loss(batch)
+
+    running, time_limit, terminal = run(False, False), run(True, False), run(True, True)
+    reward = data["next", "reward"].mean()
+    torch.testing.assert_close(terminal["target_value"], reward)  # nothing after a termination
+    for key in ("target_value", "loss_qvalue"):  # a time limit changes nothing
+        torch.testing.assert_close(time_limit[key], running[key], rtol=0, atol=0)
+    next_value = time_limit["next_state_value"]
+    assert next_value > 0.1  # values start near 1% of [0, 100]: the bootstrap is visible
+    torch.testing.assert_close(time_limit["target_value"], reward + 0.99 * next_value)
+
+
 def test_one_identity_copy_is_exactly_no_augmentation(action_spec, make_batch):
     data = make_batch(4, pixels=True)
     plain = _loss(action_spec, pixels=True)

@@ -208,19 +208,61 @@ def test_configuration_errors(action_spec):
         DrQSACLoss(actor, pixel_critics, encoder=encoder)
 
 
+def _with_ends(data, done: bool, terminated: bool):
+    batch = data.clone()
+    batch["next", "done"].fill_(done)
+    batch["next", "terminated"].fill_(terminated)
+    return batch
+
+
+@pytest.mark.parametrize("copies", [0, 2])
+def test_a_time_limit_keeps_the_bootstrap_and_a_termination_drops_it(action_spec, make_batch, copies):
+    """done without terminated (every DM Control episode end: a time limit) still bootstraps,
+    y = r + gamma V(s'); terminated stops it, y = r."""
+    augmentation = ObservationNoise(0.1, in_keys=with_next_keys(["observation"])) if copies else None
+    loss = _loss(action_spec, pixels=False, copies=copies, augmentation=augmentation)
+    data = make_batch(6, pixels=False)
+
+    def target(done, terminated):
+        torch.manual_seed(7)  # the same next actions (and augmentations) in every call
+        return loss(_with_ends(data, done, terminated))["target_value"]
+
+    running, time_limit, terminal = target(False, False), target(True, False), target(True, True)
+    reward = data["next", "reward"].mean()
+    torch.testing.assert_close(terminal, reward)  # nothing after a termination
+    torch.testing.assert_close(time_limit, running, rtol=0, atol=0)  # a time limit changes nothing
+    assert (time_limit - reward).abs() > 1e-2  # ... and the discounted next value is in the target
+
+
 def test_in_keys_are_the_encoder_inputs(action_spec):
     loss = _loss(action_spec)
     assert set(loss.in_keys) == {
         "action", "pixels", ("next", "pixels"), ("next", "reward"), ("next", "done"), ("next", "terminated")
     }
-    assert isinstance(loss(TensorDict(
+
+
+def test_a_terminal_batch_regresses_the_critics_on_the_reward(action_spec):
+    """Every transition terminated: y = r exactly, and loss_qvalue = sum_i mean (Q_i(s, a) - r)^2."""
+    loss = _loss(action_spec)
+    gen = torch.Generator().manual_seed(8)
+    data = TensorDict(
         {
-            "pixels": torch.zeros(2, 9, 84, 84, dtype=torch.uint8),
-            "action": torch.zeros(2, 2),
-            ("next", "pixels"): torch.zeros(2, 9, 84, 84, dtype=torch.uint8),
-            ("next", "reward"): torch.zeros(2, 1),
-            ("next", "done"): torch.zeros(2, 1, dtype=torch.bool),
-            ("next", "terminated"): torch.ones(2, 1, dtype=torch.bool),
+            "pixels": torch.randint(0, 256, (3, 9, 84, 84), generator=gen).to(torch.uint8),
+            "action": 2 * torch.rand(3, 2, generator=gen) - 1,
+            ("next", "pixels"): torch.randint(0, 256, (3, 9, 84, 84), generator=gen).to(torch.uint8),
+            ("next", "reward"): torch.tensor([[0.5], [2.0], [-1.0]]),
+            ("next", "done"): torch.ones(3, 1, dtype=torch.bool),
+            ("next", "terminated"): torch.ones(3, 1, dtype=torch.bool),
         },
-        [2],
-    ))["loss_qvalue"], torch.Tensor)
+        [3],
+    )
+    out = loss(data.clone())
+    with torch.no_grad(), loss.encoder_network_params.to_module(loss.encoder_network):
+        embedding = loss.encoder_network(data.select("pixels").clone())["embedding"]
+        net, q = loss.qvalue_network, []
+        for i in range(2):
+            with loss.qvalue_network_params[i].to_module(net):
+                q.append(net.module(embedding, data["action"]))
+        expected = sum(((qi - data["next", "reward"]) ** 2).mean() for qi in q)
+    torch.testing.assert_close(out["target_value"], torch.tensor(0.5))
+    torch.testing.assert_close(out["loss_qvalue"], expected, rtol=1e-5, atol=1e-6)

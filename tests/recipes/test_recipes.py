@@ -103,3 +103,23 @@ def test_a_run_killed_before_its_first_checkpoint_starts_again_from_frame_0(tmp_
 def _rows(run_dir: Path) -> list[dict]:
     path = run_dir / "metrics.csv"
     return read_metrics(path) if path.exists() else []
+
+
+def _science(rows: list[dict]) -> list[tuple]:
+    """Every logged value except timings (frames, name, value)."""
+    return [(r["frames"], r["name"], r["value"]) for r in rows if not r["name"].startswith("time/")]
+
+
+def test_same_seed_reproduces_the_run_exactly(tmp_path):
+    """On one machine with the same settings, a CPU run's losses, returns and evaluation repeat exactly."""
+    runs = [recipe("sac", tmp_path / name, "algo.aug=rad", "env.benchmark=easy", "env.dynamic=true", "seed=5")
+            for name in ("a", "b")]
+    for done in runs:
+        assert done.returncode == 0, done.stdout + done.stderr
+    a, b = (_science(read_metrics(tmp_path / name / "metrics.csv")) for name in ("a", "b"))
+    assert any(name.startswith("loss/") for _, name, _ in a)
+    assert a == b
+    results = [json.loads((tmp_path / name / "results.json").read_text())["eval"] for name in ("a", "b")]
+    assert results[0] == results[1]
+    # the console log is the file Hydra keeps in the run directory
+    assert "final evaluation after 480 frames" in (tmp_path / "a" / "sac.log").read_text()

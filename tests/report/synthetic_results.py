@@ -39,18 +39,18 @@ def env_dict(axis: str, value, dynamic: bool, split: str = "train") -> dict:
 
 def run_doc(score: float, method: str = "SAC", domain: str = "cheetah", task: str = "run", seed: int = 0, *,
             experiment: str | None = "benchmarks", axis: str = "benchmark", value="easy", dynamic: bool = False,
-            eval_split: str | None = None, steps: int = 500_000) -> dict:
-    """One results.json document with eval.mean = ``score``."""
+            eval_split: str | None = None, steps: int = 500_000, episodes: int = 2) -> dict:
+    """One results.json document with eval.mean = ``score`` over ``episodes`` evaluation episodes."""
     algo, aug = ALGO_AUG[method]
     sweep = {"axis": axis, "value": value, "dynamic": dynamic}
     if eval_split is not None:
         sweep["eval_split"] = eval_split
     env = env_dict(axis, value, dynamic, eval_split or "train")
-    returns = [score - 1.0, score + 1.0]
+    returns = [score + (1.0 if i % 2 else -1.0) for i in range(episodes - episodes % 2)] + [score] * (episodes % 2)
     return {
         "schema": 1, "experiment": experiment, "method": method, "algo": algo, "aug": aug, "domain": domain,
         "task": task, "seed": seed, "steps": steps, "wall_time": 12.5, "train_env": env, "eval_env": env,
-        "sweep": sweep, "eval": {"mean": float(score), "stderr": 1.0, "episodes": 2, "returns": returns},
+        "sweep": sweep, "eval": {"mean": float(score), "stderr": 1.0, "episodes": episodes, "returns": returns},
         "config": {"seed": seed},
     }
 

@@ -5,6 +5,7 @@ import pytest
 from synthetic_results import run_doc, write_run
 
 from dcs_torchrl.report.load import RUN_COLUMNS, load_results, parse_run
+from dcs_torchrl.report.tables import benchmark_table
 
 
 def test_valid_runs_become_one_row_each(results_dir):
@@ -76,6 +77,40 @@ def test_a_repeated_run_is_skipped_as_duplicate(results_dir):
     assert loaded.skipped[0].reason.startswith("duplicate of benchmarks/SAC/")
 
 
+def _cell(loaded):
+    table = benchmark_table(loaded.runs, "easy", False, [("cheetah", "run")])
+    return table.set_index(["method", "task"]).loc[("SAC", "run"), ["mean", "n"]].tolist()
+
+
+@pytest.mark.parametrize("other", [{"steps": 100_000}, {"episodes": 10}])
+def test_runs_of_another_length_or_evaluation_count_are_left_out(results_dir, other):
+    """Seeds 0 and 1 at 500K steps, 2 episodes; seed 2 differs: the cell averages seeds 0 and 1 only."""
+    write_run(results_dir, 100.0, seed=0)
+    write_run(results_dir, 200.0, seed=1)
+    odd = write_run(results_dir / "other", 900.0, seed=2, **other)
+    loaded = load_results(results_dir)
+    assert loaded.budget == (500_000, 2) and loaded.skipped == ()
+    assert loaded.runs["score"].tolist() == [100.0, 200.0]
+    assert loaded.left_out["path"].tolist() == [odd.relative_to(results_dir).as_posix()]
+    assert _cell(loaded) == [150.0, 2]
+
+
+def test_the_same_seed_at_another_length_is_not_a_duplicate(results_dir):
+    write_run(results_dir, 100.0, seed=0, steps=400)
+    write_run(results_dir / "longer", 300.0, seed=0, steps=800)
+    loaded = load_results(results_dir)
+    assert loaded.skipped == () and loaded.budget == (800, 2)  # a tie: the longer runs are kept
+    assert loaded.runs["score"].tolist() == [300.0] and loaded.left_out["score"].tolist() == [100.0]
+
+
+def test_plain_runs_of_any_length_are_kept(results_dir):
+    write_run(results_dir, 100.0, seed=0)
+    write_run(results_dir / "plain", 5.0, experiment=None, steps=16_000)
+    loaded = load_results(results_dir)
+    assert sorted(loaded.runs["steps"].tolist()) == [16_000, 500_000] and loaded.left_out.empty
+    assert loaded.budget == (500_000, 2)
+
+
 def test_a_run_without_sweep_is_placed_by_its_benchmark():
     doc = run_doc(42.0, value="medium", dynamic=True)
     doc["sweep"] = None
@@ -98,3 +133,4 @@ def test_missing_directory_is_an_error(tmp_path):
 def test_empty_directory_gives_an_empty_table(results_dir):
     loaded = load_results(results_dir)
     assert loaded.runs.empty and list(loaded.runs.columns) == list(RUN_COLUMNS) and loaded.skipped == ()
+    assert loaded.left_out.empty and loaded.budget is None

@@ -95,3 +95,9 @@ def test_notes_hold_the_half_score_statements():
         ("robustness", "camera", "=", 0.2), ("robustness", "color", "=", 0.6),
         ("robustness", "background_blend", "<", 0.1)]
     assert any("blind" in n for n in notes["not_published_as_numbers"])
+
+
+def test_notes_cite_the_paper_by_name_not_a_file():
+    source = paper_notes()["source"]
+    assert "The Distracting Control Suite" in source and "arXiv:2101.02722" in source
+    assert "/" not in source.replace("arXiv:", "")

@@ -1,13 +1,13 @@
-"""Seed statistics and the bold rule (Welch's one-sided t-test at p < 0.1)."""
+"""Seed statistics and the bold rule (a one-sided z-test on mean ± s.e. at p < 0.1)."""
 import math
 
-import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats
 
-from dcs_torchrl.report.paper import paper_benchmarks
-from dcs_torchrl.report.stats import Score, better_p_value, bold_flags, seed_scores, task_mean
+from dcs_torchrl.report.paper import paper_benchmarks, paper_interactions
+from dcs_torchrl.report.stats import (Estimate, Score, better_p_value, bold_flags, seed_scores, task_mean,
+                                      z_p_value)
 
 
 def test_score_is_mean_and_standard_error_over_seeds():
@@ -43,7 +43,7 @@ def test_mean_over_tasks_is_per_seed_then_over_complete_seeds():
 def test_clearly_worse_is_not_bold_and_close_is_bold():
     flags = bold_flags({
         "best": Score.of([300.0, 310.0, 320.0]),
-        "close": Score.of([295.0, 305.0, 315.0]),  # Welch one-sided p ~ 0.29
+        "close": Score.of([295.0, 305.0, 315.0]),  # z = 5 / sqrt(2 * 100 / 3), p ~ 0.27
         "worse": Score.of([100.0, 101.0, 102.0]),
     })
     assert flags == {"best": True, "close": True, "worse": False}
@@ -82,16 +82,26 @@ def test_zero_variance_both_sides_is_a_certain_difference():
     assert flags == {"a": True, "b": False, "c": True}
 
 
-def test_zero_variance_on_one_side_uses_the_other_variance():
+def test_zero_variance_on_one_side_uses_the_other_standard_error():
     p = better_p_value(Score.of([200.0] * 3), Score.of([100.0, 150.0, 200.0]))
-    t = math.sqrt(3)  # 50 / (50 / sqrt(3)), df = 2: p = (1 - t / sqrt(t^2 + 2)) / 2
-    assert p == pytest.approx((1 - t / math.sqrt(t * t + 2)) / 2, rel=1e-9)
+    assert p == pytest.approx(stats.norm.sf(50 / (50 / math.sqrt(3))), rel=1e-12)  # z = sqrt(3): p = 0.0416
 
 
-def test_p_value_is_welchs_one_sided_t_test():
-    a, b = [10.0, 12.0, 17.0, 11.0], [8.0, 9.5, 12.0, 7.0, 9.0]
-    expected = stats.ttest_ind(a, b, equal_var=False, alternative="greater").pvalue
-    assert better_p_value(Score.of(a), Score.of(b)) == pytest.approx(expected, rel=1e-12)
+def test_p_value_is_a_one_sided_z_test_on_mean_and_standard_error():
+    a, b = Score.of([10.0, 12.0, 17.0, 11.0]), Score.of([8.0, 9.5, 12.0, 7.0, 9.0])
+    z = (a.mean - b.mean) / math.sqrt(a.stderr**2 + b.stderr**2)
+    assert better_p_value(a, b) == pytest.approx(0.5 * math.erfc(z / math.sqrt(2)), rel=1e-12)
+    # not Welch's t-test on the same seeds, whose p is larger (heavier tails with few seeds)
+    welch = stats.ttest_ind(a.values, b.values, equal_var=False, alternative="greater").pvalue
+    assert better_p_value(a, b) < welch - 0.005
+
+
+def test_z_p_value_of_published_numbers():
+    """The paper's finger spin, medium dynamic: SAC+RAD 63 ± 24 against QT-Opt 28 ± 11."""
+    assert z_p_value(63, 24, 28, 11) == pytest.approx(0.0925, abs=5e-5)
+    assert bold_flags({"SAC+RAD": Estimate(63, 24), "QT-Opt": Estimate(28, 11)}) == {"SAC+RAD": True, "QT-Opt": False}
+    assert (z_p_value(1, 0, 1, 0), z_p_value(2, 0, 1, 0)) == (1.0, 0.0)
+    assert math.isnan(z_p_value(2, math.nan, 1, 0))
 
 
 def test_missing_cells_are_not_bold():
@@ -99,30 +109,38 @@ def test_missing_cells_are_not_bold():
     assert bold_flags({"a": None}) == {"a": False}
 
 
-def test_rule_reproduces_the_papers_bold_entries():
-    """Welch one-sided at p < 0.1 from the published mean ± s.e. (n = 5) gives the paper's bold
-    marks in 206 of 210 cells; the 4 exceptions are borderline (p in [0.100, 0.118])."""
+def _paper_columns():
+    """Each column of the paper's tables default/easy/medium: {method: Estimate} and {method: bold}."""
     df = paper_benchmarks()
-    n, disagree = 5, []
-    for _, g in df.groupby(["benchmark", "dynamic", "domain", "task"]):
-        best = g.loc[g["mean"].idxmax()]
-        for r in g.itertuples():
-            if r.mean == best["mean"]:
-                continue
-            rng = np.random.default_rng(0)
-            # seeds with exactly the published mean and standard error
-            def seeds(mean, se):
-                z = rng.standard_normal(n)
-                z = (z - z.mean()) / z.std(ddof=1) if se > 0 else np.zeros(n)
-                return Score.of(mean + z * se * math.sqrt(n))
-            b, o = seeds(best["mean"], best["stderr"]), seeds(r.mean, r.stderr)
-            p = better_p_value(b, o)
-            if (p >= 0.1) != r.bold:
-                disagree.append((r.benchmark, r.dynamic, r.domain, r.method, round(p, 3)))
-    assert [d[:4] for d in disagree] == [
-        ("medium", True, "finger", "QT-Opt"),
-        ("medium", True, "finger", "QT-Opt+DrQ"),
-        ("none", False, "cartpole", "SAC+RAD"),
-        ("none", False, "reacher", "SAC+RAD"),
-    ]
-    assert all(0.0995 <= d[4] <= 0.12 for d in disagree)
+    for key, g in df.groupby(["benchmark", "dynamic", "domain", "task"]):
+        yield key, {r.method: Estimate(r.mean, r.stderr) for r in g.itertuples()}, dict(zip(g.method, g.bold))
+
+
+def test_rule_reproduces_every_bold_mark_of_the_papers_tables():
+    """The z-test at p < 0.1 on the published mean ± s.e. gives every one of the 210 bold marks."""
+    count, disagree = 0, []
+    for key, estimates, printed in _paper_columns():
+        computed = bold_flags(estimates)
+        count += len(computed)
+        disagree += [(*key, method) for method in printed if computed[method] != printed[method]]
+    assert count == 210 and disagree == []
+    assert "bold" not in paper_interactions().columns  # the only other table prints no bold marks
+
+
+def test_welchs_t_test_would_miss_four_of_the_papers_bold_marks():
+    """The rule used before: Welch's one-sided t-test on the same numbers (n = 5) gets 206 of 210."""
+    def welch(best, other, n=5):
+        v1, v2 = best.stderr**2, other.stderr**2
+        if v1 + v2 == 0:
+            return 0.0 if best.mean > other.mean else 1.0
+        df = (v1 + v2) ** 2 / ((v1**2 + v2**2) / (n - 1))
+        return stats.t.sf((best.mean - other.mean) / math.sqrt(v1 + v2), df)
+
+    misses = []
+    for key, estimates, printed in _paper_columns():
+        best = max(estimates.values(), key=lambda e: e.mean)
+        for method, e in estimates.items():
+            if (e.mean == best.mean or welch(best, e) >= 0.1) != printed[method]:
+                misses.append((key[0], key[1], key[2], method))
+    assert misses == [("medium", True, "finger", "QT-Opt"), ("medium", True, "finger", "QT-Opt+DrQ"),
+                      ("none", False, "cartpole", "SAC+RAD"), ("none", False, "reacher", "SAC+RAD")]

@@ -74,7 +74,7 @@ def test_markdown_shows_bold_seed_counts_missing_and_the_paper(table):
     assert "| QT-Opt | — | — | 190 ± 0 (n=3) |" in lines  # missing cells
     assert "| QT-Opt+RAD | **317 ± 8** | **446 ± 23** | **220 ± 5** |" in lines  # the paper's row, its bold
     assert "| static | QT-Opt+RAD | 210 ± 6 (n=3) | 317 ± 8 | 0.66 |" in lines
-    assert "Welch's one-sided t-test" in md
+    assert "one-sided z-test on mean ± s.e." in md
 
 
 def test_no_distraction_table_pools_static_and_dynamic(results_dir):

@@ -1,0 +1,56 @@
+"""The paper budget needs DAVIS 2017 (or an explicit opt-in), and the report marks stand-in backgrounds."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+from synthetic_results import write_run
+
+from dcs_torchrl.experiments.launch import check_backgrounds, recipe_settings
+from dcs_torchrl.report import build_report
+from dcs_torchrl.report.load import backgrounds
+
+ROOT = Path(__file__).resolve().parents[2]  # the project
+
+
+def test_paper_budget_without_davis_stops_with_the_setting_to_pass():
+    out = subprocess.run([sys.executable, str(ROOT / "recipes/experiments/status.py"), "experiment=benchmarks", "budget=paper"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode != 0
+    assert "budget.background_dir=" in out.stderr and "budget.stand_in_backgrounds=true" in out.stderr
+
+
+def test_opt_in_and_folder(tmp_path):
+    paper = OmegaConf.create({"name": "paper", "requires_davis": True, "background_dir": None,
+                              "stand_in_backgrounds": False, "recipe": {"total_frames": 10}})
+    with pytest.raises(ValueError, match="stand_in_backgrounds=true"):
+        check_backgrounds(paper)
+    check_backgrounds(OmegaConf.merge(paper, {"stand_in_backgrounds": True}))
+    with pytest.raises(FileNotFoundError, match="not a directory"):
+        check_backgrounds(OmegaConf.merge(paper, {"background_dir": str(tmp_path / "missing")}))
+    with_davis = OmegaConf.merge(paper, {"background_dir": str(tmp_path)})
+    check_backgrounds(with_davis)
+    # the folder reaches every recipe run (and, through the training env, every evaluation)
+    settings = recipe_settings(OmegaConf.create({"budget": with_davis}))
+    assert settings == {"total_frames": 10, "env.background_dir": str(tmp_path)}
+
+
+def test_backgrounds_of_a_run():
+    assert backgrounds({"num_videos": 0}, {"num_videos": 0}) == "none"
+    assert backgrounds({"num_videos": 0}, {"num_videos": 60, "background_blend": 0.0}) == "none"
+    assert backgrounds({"num_videos": 0}, {"num_videos": 60, "background_blend": 0.4}) == "stand-in"
+    assert backgrounds({"num_videos": 8, "background_dir": "/data/davis"}, {"num_videos": 8, "background_dir": "/data/davis"}) == "folder"
+
+
+def test_report_marks_stand_in_backgrounds_only_where_they_were_used(tmp_path):
+    results = tmp_path / "results"
+    for seed in (0, 1):
+        write_run(results, 100.0 + seed, seed=seed, experiment="robustness", axis="camera", value=0.5)
+        write_run(results, 50.0 + seed, seed=seed, experiment="benchmarks", axis="benchmark", value="easy")
+    report = build_report(results, tmp_path / "report", log=None)
+    text = (report.out / "report.md").read_text()
+    robustness = text.split("## ")[[i for i, s in enumerate(text.split("## ")) if s.startswith("Robustness") or "robustness" in s.split("\n")[0].lower()][0]]
+    assert "stand-in videos" not in robustness  # camera only: no videos
+    benchmarks = [s for s in text.split("## ") if s.lower().startswith("benchmark")][0]
+    assert "embedded stand-in videos, not DAVIS 2017" in benchmarks

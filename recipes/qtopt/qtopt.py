@@ -1,15 +1,11 @@
-"""QT-Opt, QT-Opt+RAD and QT-Opt+DrQ from pixels on the Distracting Control Suite.
+"""QT-Opt, QT-Opt+RAD and QT-Opt+DrQ from pixels on the Distracting Control Suite: the Hydra entry point.
 
     python recipes/qtopt/qtopt.py env.domain=cartpole env.task=swingup env.benchmark=easy algo.aug=rad
 
-QT-Opt (Kalashnikov et al. 2018) as the paper runs it (Stone et al. 2021, section 4): a
-Q-function on DrQ's encoder and MLPs, the greedy action found by the cross-entropy method (CEM),
-clipped double Q with target networks, QT-Opt's cross-entropy loss on a normalised value, and
-DrQ's K = M augmented copies (``algo.aug``: none 0, rad 1, drq 2) averaged in the target and the
-loss (:class:`dcs_torchrl.objectives.QTOptLoss`). The acting policy is CEM on the online Q head
-(:class:`dcs_torchrl.objectives.CEMActor`). Everything around the update is
-:func:`dcs_torchrl.training.train`; the agent is
-:class:`dcs_torchrl.algorithms.QTOptAgent`. Every output goes to Hydra's run directory.
+The algorithm is :class:`dcs_torchrl.algorithms.QTOptAgent` (its docstring: what the paper runs and
+where each choice comes from); everything around the update (envs, replay, logging, evaluation,
+checkpoints) is :func:`dcs_torchrl.training.train`. Settings: ``config.yaml`` beside this file
+and ``dcs_torchrl/training/conf/base.yaml``. Every output goes to Hydra's run directory.
 """
 from __future__ import annotations
 

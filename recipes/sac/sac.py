@@ -1,13 +1,11 @@
-"""SAC, SAC+RAD and SAC+DrQ from pixels on the Distracting Control Suite.
+"""SAC, SAC+RAD and SAC+DrQ from pixels on the Distracting Control Suite: the Hydra entry point.
 
     python recipes/sac/sac.py env.domain=cartpole env.task=swingup env.benchmark=easy algo.aug=rad
 
-The algorithm is DrQ's SAC (Kostrikov et al. 2020) as the paper runs it (Stone et al. 2021,
-section 4): a shared pixel encoder trained through the critic only, twin critics, a learned
-temperature, and K = M augmented copies (``algo.aug``: none 0, rad 1, drq 2) averaged in the
-critic target and loss (:class:`dcs_torchrl.objectives.DrQSACLoss`). Everything around the
-update (envs, replay, logging, evaluation, checkpoints) is :func:`dcs_torchrl.training.train`; the agent is
-:class:`dcs_torchrl.algorithms.SACAgent`. Every output goes to Hydra's run directory (``hydra.run.dir=...``).
+The algorithm is :class:`dcs_torchrl.algorithms.SACAgent` (its docstring: what the paper runs and
+where each choice comes from); everything around the update (envs, replay, logging, evaluation,
+checkpoints) is :func:`dcs_torchrl.training.train`. Settings: ``config.yaml`` beside this file
+and ``dcs_torchrl/training/conf/base.yaml``. Every output goes to Hydra's run directory.
 """
 from __future__ import annotations
 

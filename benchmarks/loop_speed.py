@@ -29,7 +29,11 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from dcs_torchrl.methods import method_name  # noqa: E402  (pure data: no torch import)
+
 LOOP_ROWS = ("collect", "extend", "sample", "update")
+REPEAT = 8  # cartpole swingup's action repeat
 
 
 def cpu_model() -> str:
@@ -41,10 +45,9 @@ def cpu_model() -> str:
 
 
 def recipe_overrides(method: str, batch: int, seed_steps: int, steps: int) -> list[str]:
-    repeat = 8  # cartpole
     return [
         f"algo.aug={method}", f"algo.batch_size={batch}", f"collector.seed_steps={seed_steps}",
-        f"total_frames={(seed_steps + steps) * repeat}", f"logger.interval={25 * repeat}",
+        f"total_frames={(seed_steps + steps) * REPEAT}", f"logger.interval={25 * REPEAT}",
         "eval.interval=100000000", "eval.episodes=1", "eval.video=false", "checkpoint.interval=100000000",
         "progress=false",
     ]
@@ -52,7 +55,6 @@ def recipe_overrides(method: str, batch: int, seed_steps: int, steps: int) -> li
 
 def measure_loop(method: str, batch: int, seed_steps: int, steps: int) -> dict:
     """Runs the recipe; seconds per agent step after the seed steps, and the phase breakdown."""
-    sys.path.insert(0, str(ROOT))
     from dcs_torchrl.training import read_metrics
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -63,7 +65,7 @@ def measure_loop(method: str, batch: int, seed_steps: int, steps: int) -> dict:
         if process.returncode != 0:
             raise subprocess.CalledProcessError(process.returncode, cmd)
         rows = read_metrics(Path(tmp) / "run/metrics.csv")
-    repeat = 8
+    repeat = REPEAT
     logged = sorted({r["frames"] for r in rows if r["name"] == "time/fps"})
     after = [f for f in logged if f // repeat >= seed_steps + 25]  # rows covering only learning steps
     first, last = after[0], after[-1]
@@ -115,14 +117,13 @@ def build_agent(method: str, batch: int):
     from tensordict import TensorDict
     from torchrl.data import Bounded
 
-    sys.path.insert(0, str(ROOT))
-    from dcs_torchrl.experiments.evaluate import load_agent_class
+    from dcs_torchrl.methods import agent_class
     from dcs_torchrl.training import FrameStackReplayBuffer
 
     with initialize_config_dir(str(ROOT / "recipes/sac"), version_base=None):
         cfg = compose("config", overrides=recipe_overrides(method, batch, 1, 1))
     torch.manual_seed(0)
-    agent = load_agent_class("sac")(cfg, (9, 84, 84), Bounded(-1.0, 1.0, shape=(1,)), 8)
+    agent = agent_class("sac")(cfg, (9, 84, 84), Bounded(-1.0, 1.0, shape=(1,)), 8)
     buffer = FrameStackReplayBuffer(2000, 3, (3, 84, 84), (1,), batch_size=batch, min_episode_steps=125)
     steps = 125
     for _ in range(8):
@@ -188,13 +189,13 @@ def main() -> None:
             update = run_child("update", method, batch, args)
             loop = run_child("loop", method, batch, args)
             rows.append((method, batch, loop, update))
-            print(f"  SAC+{method.upper() if method != 'none' else ''} batch {batch}: loop {loop['loop_s_per_step']:.3f} s/step, "
+            print(f"  {method_name('sac', method)} batch {batch}: loop {loop['loop_s_per_step']:.3f} s/step, "
                   f"update alone {update['update_s']:.3f} s", flush=True)
     print("\n| method | batch | whole loop s/agent step | update alone s | loop / update | "
           "in the loop: collect | sample | update (ms/step) |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for method, batch, loop, update in rows:
-        name = "SAC" + {"none": "", "rad": "+RAD", "drq": "+DrQ"}[method]
+        name = method_name("sac", method)
         ph = loop["phases_s"]
         print(f"| {name} | {batch} | {loop['loop_s_per_step']:.3f} | {update['update_s']:.3f} | "
               f"**{loop['loop_s_per_step'] / update['update_s']:.3f}** | {1000 * ph['collect']:.1f} | "
@@ -202,7 +203,7 @@ def main() -> None:
     print("\nCPU seconds of the recipe's threads over the whole run (wall seconds in brackets), by process and thread name:")
     for method, batch, loop, _ in rows:
         shown = ", ".join(f"{name} {seconds:.0f}" for name, seconds in list(loop["cpu_s"].items())[:8])
-        print(f"  SAC+{method} batch {batch} ({loop['wall_s']:.0f} s): {shown}")
+        print(f"  {method_name('sac', method)} batch {batch} ({loop['wall_s']:.0f} s): {shown}")
 
 
 if __name__ == "__main__":

@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from loop_speed import build_agent, cpu_model  # noqa: E402
+from loop_speed import build_agent, cpu_model, method_name  # noqa: E402
 
 CONV_OPS = ("convolution", "conv2d", "mkldnn_convolution", "convolution_backward")
 MATMUL_OPS = ("aten::mm", "aten::addmm", "aten::bmm", "aten::matmul", "aten::linear")
@@ -120,7 +120,7 @@ def main() -> None:
             rate = m["flops"] / m["update_s"] / 1e9
             conv_rate = m["conv_flops"] / max(m["conv_s"], 1e-9) / 1e9
             share = (m["conv_s"] + m["matmul_s"]) / m["profiled_s"]
-            name = "SAC" + {"none": "", "rad": "+RAD", "drq": "+DrQ"}[method]
+            name = method_name("sac", method)
             print(f"| {name} | {batch} | {m['flops'] / 1e9:.1f} | {m['update_s']:.3f} | {rate:.1f} | {rate / peak:.2f} | "
                   f"{conv_rate:.1f} | {conv_rate / peak:.2f} | {share:.0%} |", flush=True)
 

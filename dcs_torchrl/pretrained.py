@@ -38,7 +38,7 @@ def _build_agent(results: dict, device: str = "cpu"):
     """The run's agent (untrained), from its config."""
     from omegaconf import OmegaConf
 
-    from dcs_torchrl.experiments.evaluate import load_agent_class
+    from dcs_torchrl.methods import agent_class
     from dcs_torchrl.training.envs import env_options, env_settings, pixel_env, pixel_options
 
     cfg = OmegaConf.merge(OmegaConf.create(results["config"]), {"device": device})
@@ -46,7 +46,7 @@ def _build_agent(results: dict, device: str = "cpu"):
     env = pixel_env(settings, **pixel_options(cfg.pixels))  # the specs the networks are built from
     try:
         spec = env.action_spec
-        agent = load_agent_class(cfg.algo.name)(cfg, tuple(env.observation_spec["pixels"].shape[-3:]), spec,
+        agent = agent_class(cfg.algo.name)(cfg, tuple(env.observation_spec["pixels"].shape[-3:]), spec,
                                                 settings.action_repeat)
     finally:
         env.close()

@@ -21,12 +21,7 @@ from omegaconf import OmegaConf
 from dcs_torchrl.experiments.grid import Evaluation
 from dcs_torchrl.methods import agent_class
 
-__all__ = ["evaluate_checkpoint", "load_agent_class"]
-
-def load_agent_class(algo: str) -> type:
-    """The agent class of ``algo`` (``"sac"``, ``"qtopt"``): :func:`dcs_torchrl.methods.agent_class`."""
-    return agent_class(algo)
-
+__all__ = ["evaluate_checkpoint"]
 
 def _trained_results(train_dir: Path) -> dict:
     try:
@@ -104,7 +99,7 @@ def evaluate_checkpoint(
             env = pixel_env(eval_settings, seed=seed, **pixels)
         if agent is None:
             spec = env.action_spec[0] if env.batch_size else env.action_spec
-            agent = load_agent_class(cfg.algo.name)(OmegaConf.merge(cfg, {"device": device}),
+            agent = agent_class(cfg.algo.name)(OmegaConf.merge(cfg, {"device": device}),
                                                     tuple(env.observation_spec["pixels"].shape[-3:]), spec,
                                                     eval_settings.action_repeat)
             load_policy_state(agent, loaded[1])  # a training checkpoint or an exported agent

@@ -10,7 +10,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
 
-from dcs_torchrl.experiments.evaluate import load_agent_class
+from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunMismatchError, train
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,7 +36,7 @@ def config(algo: str, *overrides: str):
 def test_bad_settings_fail_before_writing(tmp_path, algo, overrides, error, match):
     cfg = config(algo, *overrides)
     with pytest.raises(error, match=match):
-        train(cfg, load_agent_class(algo), tmp_path / "run")
+        train(cfg, agent_class(algo), tmp_path / "run")
     assert not (tmp_path / "run").exists()
 
 
@@ -53,7 +53,7 @@ def test_resume_with_another_config_is_refused_and_overwrites_nothing(tmp_path):
     (run / "metrics.csv").write_text("frames,name,value,wall_time\n")
     cfg = config("sac", "algo.aug=rad")
     with pytest.raises(RunMismatchError, match="holds a run of another configuration"):
-        train(cfg, load_agent_class("sac"), run)
+        train(cfg, agent_class("sac"), run)
     assert json.loads((run / "run_config.json").read_text()) == recorded
     assert (run / "metrics.csv").read_text() == "frames,name,value,wall_time\n"
 

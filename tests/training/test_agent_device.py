@@ -15,7 +15,7 @@ from hydra import compose, initialize_config_dir
 from torch import nn
 from torchrl.data import Bounded
 
-from dcs_torchrl.experiments.evaluate import load_agent_class
+from dcs_torchrl.methods import agent_class
 
 RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 
@@ -32,7 +32,7 @@ def _moved_modules(monkeypatch, algo: str):
 
     monkeypatch.setattr(nn.Module, "to", to)
     spec = Bounded(-torch.ones(2), torch.ones(2), shape=(2,))
-    agent = load_agent_class(algo)(cfg, (9, 32, 32), spec, 4)
+    agent = agent_class(algo)(cfg, (9, 32, 32), spec, 4)
     monkeypatch.undo()
     return agent, {id(m) for m, device in moved if device == agent.device}
 

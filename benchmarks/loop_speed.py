@@ -113,15 +113,15 @@ def thread_cpu_while(process: subprocess.Popen) -> dict[str, float]:
 def build_agent(method: str, batch: int):
     """The SAC recipe's agent for ``method`` at ``batch`` and a replay buffer of 8 episodes of random frames."""
     import torch
-    from hydra import compose, initialize_config_dir
+    from hydra import compose, initialize_config_module
     from tensordict import TensorDict
     from torchrl.data import Bounded
 
     from dcs_torchrl.methods import agent_class
     from dcs_torchrl.training import FrameStackReplayBuffer
 
-    with initialize_config_dir(str(ROOT / "recipes/sac"), version_base=None):
-        cfg = compose("config", overrides=recipe_overrides(method, batch, 1, 1))
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose("sac", overrides=recipe_overrides(method, batch, 1, 1))
     torch.manual_seed(0)
     agent = agent_class("sac")(cfg, (9, 84, 84), Bounded(-1.0, 1.0, shape=(1,)), 8)
     buffer = FrameStackReplayBuffer(2000, 3, (3, 84, 84), (1,), batch_size=batch, min_episode_steps=125)

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from torchrl.envs import Compose, DMControlWrapper, EnvBase, Transform, TransformedEnv
 from torchrl.envs.batched_envs import BatchedEnvBase
 
+from dcs_torchrl._private_api import container_of, dm_physics
+
 _FACTORY_HINT = (
     "build the suite inside each worker instead, e.g. "
     "ParallelEnv(n, functools.partial(dcs_torchrl.make_env, 'cheetah', 'run', ...))"
@@ -30,7 +32,7 @@ class Scene:
 
     @property
     def physics(self):
-        return self.base_env._env.physics
+        return dm_physics(self.base_env)
 
     @property
     def frame_skip(self) -> int:
@@ -61,8 +63,7 @@ def _root(transform: Transform) -> tuple[EnvBase | None, Transform]:
     """
     node = transform
     while True:
-        ref = node.__dict__.get("_container")
-        container = ref() if isinstance(ref, weakref.ref) else ref
+        container = container_of(node)
         if container is None or isinstance(container, EnvBase):
             return container, node
         node = container

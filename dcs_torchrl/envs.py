@@ -4,6 +4,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
+from types import MappingProxyType
 
 from dm_control import suite
 from torchrl.envs import Compose, DMControlEnv, TransformedEnv
@@ -51,52 +52,55 @@ def _check_task(domain: str, task: str) -> None:
         raise ValueError(f"unknown task {task!r} of domain {domain!r}; choose one of {by_domain[domain]}.")
 
 
-def resolve_settings(
-    domain: str,
-    task: str,
-    *,
-    benchmark: str = "none",
-    dynamic: bool = False,
-    background_dir: str | os.PathLike | None = None,
-    background_split: str = "train",
-    camera_scale: float | None = None,
-    color_scale: float | None = None,
-    num_videos: int | None = None,
-    background_blend: float | None = None,
-    blind: bool | None = None,
-    ground_alpha: float | None = None,
-    action_repeat: int | None = None,
-    camera_id: int | None = None,
-) -> EnvSettings:
-    """The :class:`EnvSettings` :func:`make_env` builds from a preset and overrides (``None`` = preset)."""
+#: The settings a user chooses (make_env's keywords, a recipe's ``env`` / ``eval_env`` groups):
+#: every field of :class:`EnvSettings` but the task. ``None`` means the preset's / the task's.
+ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvSettings) if f.name not in ("domain", "task"))
+#: The options whose default is not ``None``.
+OPTION_DEFAULTS = MappingProxyType({"benchmark": "none", "dynamic": False, "background_split": "train"})
+
+
+def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
+    """The :class:`EnvSettings` :func:`make_env` builds from a preset and ``options`` (any of
+    :data:`ENV_OPTIONS`; ``None`` or missing = the preset's, or the task's).
+
+    Examples:
+        >>> resolve_settings("cartpole", "swingup", benchmark="easy", dynamic=True).camera_scale
+        0.1
+    """
+    unknown = sorted(set(options) - set(ENV_OPTIONS))
+    if unknown:
+        raise ValueError(f"unknown env setting(s) {unknown}: choose among {list(ENV_OPTIONS)}.")
+    given = {k: v for k, v in options.items() if v is not None}
+    o = {**OPTION_DEFAULTS, **given}
     _check_task(domain, task)
-    if benchmark not in presets.BENCHMARKS:
-        raise ValueError(f"unknown benchmark {benchmark!r}; choose one of {list(presets.BENCHMARKS)}.")
-    preset = presets.BENCHMARKS[benchmark]
-    pick = lambda value, default: default if value is None else value  # noqa: E731
-    repeat = int(pick(action_repeat, presets.action_repeat(domain, task)))
+    if o["benchmark"] not in presets.BENCHMARKS:
+        raise ValueError(f"unknown benchmark {o['benchmark']!r}; choose one of {list(presets.BENCHMARKS)}.")
+    preset = presets.BENCHMARKS[o["benchmark"]]
+    pick = lambda name, default: given.get(name, default)  # noqa: E731
+    repeat = int(pick("action_repeat", presets.action_repeat(domain, task)))
     if repeat < 1:
-        raise ValueError(f"action_repeat must be a positive integer, got {action_repeat}.")
-    videos = pick(num_videos, preset.num_videos)
+        raise ValueError(f"action_repeat must be a positive integer, got {given['action_repeat']}.")
+    videos = pick("num_videos", preset.num_videos)
     if videos is None:  # all videos of the split
-        videos = len(as_video_source(background_dir, background_split))
-    blend = float(pick(background_blend, preset.background_blend))
+        videos = len(as_video_source(o.get("background_dir"), o["background_split"]))
+    blend = float(pick("background_blend", preset.background_blend))
     shows_videos = videos > 0 and blend > 0
+    folder = o.get("background_dir")
     return EnvSettings(
         domain=domain,
         task=task,
-        benchmark=benchmark,
-        dynamic=bool(dynamic),
-        camera_scale=float(pick(camera_scale, preset.camera_scale)),
-        color_scale=float(pick(color_scale, preset.color_scale)),
+        benchmark=o["benchmark"],
+        dynamic=bool(o["dynamic"]),
+        camera_scale=float(pick("camera_scale", preset.camera_scale)),
+        color_scale=float(pick("color_scale", preset.color_scale)),
         num_videos=videos,
         background_blend=blend,
-        blind=bool(pick(blind, preset.blind)),
-        background_split=background_split,
-        background_dir=None if background_dir is None else os.fspath(background_dir),
-        ground_alpha=pick(ground_alpha, presets.ground_alpha(domain) if shows_videos else None),
+        blind=bool(pick("blind", preset.blind)),
+        background_split=o["background_split"],
+        background_dir=None if folder is None else os.fspath(folder),
+        ground_alpha=pick("ground_alpha", presets.ground_alpha(domain) if shows_videos else None),
         action_repeat=repeat,
-        camera_id=int(pick(camera_id, presets.default_camera(domain))),
+        camera_id=int(pick("camera_id", presets.default_camera(domain))),
     )
 
 
@@ -169,12 +173,8 @@ def make_env(
         raise ValueError(f"unknown render_profile {render_profile!r}; choose one of {sorted(PROFILES)}.")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32):
         raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {seed!r}.")
-    s = resolve_settings(
-        domain, task, benchmark=benchmark, dynamic=dynamic, background_dir=background_dir,
-        background_split=background_split, camera_scale=camera_scale, color_scale=color_scale,
-        num_videos=num_videos, background_blend=background_blend, blind=blind,
-        ground_alpha=ground_alpha, action_repeat=action_repeat, camera_id=camera_id,
-    )
+    given = locals()
+    s = resolve_settings(domain, task, **{name: given[name] for name in ENV_OPTIONS})
     expose = bool(expose_distractions)
     transforms = Compose(
         CameraDistraction(s.camera_scale, s.dynamic, camera_id=s.camera_id, blind=s.blind, expose=expose),

@@ -22,16 +22,16 @@ def rollout(env, steps, seed=0):
     return env.rollout(steps, break_when_any_done=False)
 
 
-@pytest.mark.parametrize("benchmark", list(BENCHMARKS))
-def test_benchmark_presets(benchmark):
-    preset = BENCHMARKS[benchmark]
-    env = make_env("cartpole", "swingup", benchmark=benchmark)
+@pytest.mark.parametrize("preset_name", list(BENCHMARKS))  # not `benchmark`: pytest-benchmark's fixture name
+def test_benchmark_presets(preset_name):
+    preset = BENCHMARKS[preset_name]
+    env = make_env("cartpole", "swingup", benchmark=preset_name)
     camera, color, background, _ = distractions(env)
     assert camera.scale == preset.camera_scale and color.scale == preset.color_scale
     assert camera.blind == preset.blind
     assert len(background.videos) == (60 if preset.num_videos is None else preset.num_videos)
     assert background.blend == 1.0
-    expected_alpha = None if benchmark == "none" else 0.3
+    expected_alpha = None if preset_name == "none" else 0.3
     assert background.ground_alpha == expected_alpha
 
 
@@ -162,3 +162,20 @@ def test_bad_input_names_the_fix():
         make_env("cheetah", "run", num_videos=61)
     with pytest.raises(ValueError, match="seed must be a non-negative integer"):
         make_env("cheetah", "run", seed=-1)
+
+
+def test_env_settings_have_one_source():
+    """EnvSettings lists a suite env's settings once: make_env's keywords, the recipes' env groups
+    and the validation follow it."""
+    import dataclasses
+    import inspect
+
+    from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings
+    from dcs_torchrl.training.conf import EnvConfig, EvalEnvConfig
+
+    assert set(ENV_OPTIONS) == {f.name for f in dataclasses.fields(EnvSettings)} - {"domain", "task"}
+    assert set(ENV_OPTIONS) <= set(inspect.signature(make_env).parameters)
+    assert [f.name for f in dataclasses.fields(EnvConfig)] == ["domain", "task", *ENV_OPTIONS]
+    assert [f.name for f in dataclasses.fields(EvalEnvConfig)] == list(ENV_OPTIONS)
+    with pytest.raises(ValueError, match=r"unknown env setting\(s\) \['cam_scale'\]: choose among"):
+        resolve_settings("cartpole", "swingup", cam_scale=0.1)

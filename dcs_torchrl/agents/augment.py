@@ -23,8 +23,6 @@ The number of augmented copies K (target) = M (Q-loss) is one knob, :data:`AUGME
 """
 from __future__ import annotations
 
-from dcs_torchrl.methods import AUGMENTATIONS
-
 from collections.abc import Sequence
 
 import torch
@@ -32,7 +30,9 @@ from tensordict import TensorDictBase
 from tensordict.utils import NestedKey
 from torchrl.data.tensor_specs import Bounded, TensorSpec, Unbounded
 from torchrl.envs.transforms import Transform
-from torchrl.envs.transforms.utils import _set_missing_tolerance
+
+from dcs_torchrl._private_api import set_missing_tolerance
+from dcs_torchrl.methods import AUGMENTATIONS
 
 __all__ = [
     "AUGMENTATION_COPIES",
@@ -157,7 +157,7 @@ class RandomShift(Transform):
         return _gather_windows(images, dy, dx, height, width)
 
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
-        with _set_missing_tolerance(self, True):
+        with set_missing_tolerance(self, True):
             tensordict_reset = self._call(tensordict_reset)
         return tensordict_reset
 
@@ -220,7 +220,7 @@ class RandomCrop(Transform):
         return _gather_windows(images, top, left, height, width)
 
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
-        with _set_missing_tolerance(self, True):
+        with set_missing_tolerance(self, True):
             tensordict_reset = self._call(tensordict_reset)
         return tensordict_reset
 
@@ -291,7 +291,7 @@ class ObservationNoise(Transform):
         return obs + self.std * noise.to(obs.device)
 
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
-        with _set_missing_tolerance(self, True):
+        with set_missing_tolerance(self, True):
             tensordict_reset = self._call(tensordict_reset)
         return tensordict_reset
 

@@ -23,6 +23,7 @@ from tensordict import TensorDictBase
 from torchrl.data import Composite, Unbounded
 from torchrl.envs import Transform
 
+from dcs_torchrl._private_api import base_set_seed, replace_set_seed
 from dcs_torchrl._scene import Scene, locate
 
 
@@ -63,10 +64,10 @@ class _SeedFanout:
 
 
 def _listen_to_seeds(base_env, transform) -> None:
-    fanout = base_env.__dict__.get("_set_seed")
+    fanout = base_set_seed(base_env)
     if not isinstance(fanout, _SeedFanout):
-        fanout = _SeedFanout(base_env._set_seed)
-        base_env.__dict__["_set_seed"] = fanout
+        fanout = _SeedFanout(fanout)
+        replace_set_seed(base_env, fanout)
     fanout.listeners.add(transform)
 
 

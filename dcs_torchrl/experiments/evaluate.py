@@ -7,6 +7,18 @@ deterministic policy for ``eval.episodes`` episodes with the seeds of the traini
 evaluation, and writes a ``results.json`` (``docs/results_format.md``) into its own directory.
 An evaluation directory belongs to one trained run and one setting (``run_config.json``, as
 for training runs): a finished evaluation is skipped, another one is refused.
+
+From the command line (Hydra; config ``dcs_torchrl/training/conf/evaluate.yaml``)::
+
+    python -m dcs_torchrl.experiments.evaluate train_dir=<a finished training run> \\
+        eval_env.camera_scale=0.3 eval_env.dynamic=true [eval.episodes=100] [experiment=robustness \\
+        'sweep={axis:camera,value:0.3,dynamic:true}'] [hydra.run.dir=...]
+
+The env is the training env with the ``eval_env`` overrides; the networks, pixels and seed are
+the trained run's; the episodes run with the seeds of its final evaluation, so an evaluation
+without overrides reproduces it. ``results.json`` goes to Hydra's run directory (by default
+``<train_dir>/evaluations/<the overrides>``). ``recipes/evaluate/evaluate.py`` is the same entry
+point for a clone; the experiment sweeps call :func:`evaluate_checkpoint` directly.
 """
 from __future__ import annotations
 
@@ -16,12 +28,24 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from omegaconf import OmegaConf
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf
 
 from dcs_torchrl.experiments.grid import Evaluation
 from dcs_torchrl.methods import agent_class
+from dcs_torchrl.results import RunResults
+from dcs_torchrl.training.conf import register as _register_env_groups
 
-__all__ = ["evaluate_checkpoint"]
+_register_env_groups()  # the env / eval_env groups of the configs
+
+__all__ = ["SETTABLE", "evaluate_checkpoint", "evaluate_from_config", "main"]
+
+#: What the command line may set; the rest of the config is the trained run's.
+SETTABLE = ("train_dir", "eval_env.", "eval.episodes", "eval.num_workers", "device", "experiment", "sweep", "progress", "hydra.")
+
+# The default run directory (evaluate.yaml): named after the overrides, `as_trained` without any.
+OmegaConf.register_new_resolver("or_default", lambda value, default: value or default, replace=True)
 
 def _trained_results(train_dir: Path) -> dict:
     try:
@@ -113,11 +137,40 @@ def evaluate_checkpoint(
             eval={**config["eval"], "episodes": episodes, "num_workers": workers},
             evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": loaded[0]},
         )
-        results[index] = {
-            "schema": 1, "experiment": evaluation.experiment, "method": trained["method"], "algo": trained["algo"],
-            "aug": trained["aug"], "domain": trained["domain"], "task": trained["task"], "seed": trained["seed"],
-            "steps": trained["steps"], "wall_time": time.time() - start, "train_env": trained["train_env"],
-            "eval_env": eval_settings.as_dict(), "sweep": evaluation.sweep, "eval": result.to_dict(), "config": config,
-        }
+        results[index] = RunResults.from_config(
+            config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=time.time() - start,
+            train_env=trained["train_env"], eval_env=eval_settings.as_dict(), sweep=evaluation.sweep, eval=result.to_dict(),
+        ).as_dict()
         run.write_results(results[index])
     return results
+
+
+def evaluate_from_config(cfg: DictConfig) -> dict:
+    """The command line's evaluation: ``cfg`` is ``evaluate.yaml`` with the given overrides (inside Hydra).
+
+    Refuses overrides of what the trained run fixes; returns the ``results.json`` content.
+    """
+    given = {o.split("=", 1)[0].lstrip("+~") for o in HydraConfig.get().overrides.task}
+    fixed = sorted(k for k in given if not k.startswith(SETTABLE))
+    if fixed:
+        raise SystemExit(f"{fixed}: these come from the trained run ({cfg.train_dir}/results.json); "
+                         "here only eval_env.*, eval.episodes, eval.num_workers, device, experiment and sweep.")
+    settings = {k: OmegaConf.select(cfg, k) for k in ("eval.episodes", "eval.num_workers", "device") if k in given}
+    eval_env = {k: v for k, v in OmegaConf.to_container(cfg.eval_env, resolve=True).items() if v is not None}
+    sweep = OmegaConf.to_container(cfg.sweep, resolve=True) if cfg.sweep is not None else None
+    evaluation = Evaluation("", cfg.experiment, eval_env, sweep)
+    (results,) = evaluate_checkpoint(cfg.train_dir, [(HydraConfig.get().runtime.output_dir, evaluation)], settings=settings)
+    print(f"{results['method']} {results['domain']} {results['task']} seed {results['seed']} ({results['steps']} frames) "
+          f"under {eval_env or 'the training env'}: {results['eval']['mean']:.1f} ± {results['eval']['stderr']:.1f} "
+          f"over {results['eval']['episodes']} episodes")
+    return results
+
+
+@hydra.main(config_path="pkg://dcs_torchrl.training.conf", config_name="evaluate", version_base=None)
+def main(cfg: DictConfig) -> None:
+    """``python -m dcs_torchrl.experiments.evaluate train_dir=... [eval_env.*=...]``."""
+    evaluate_from_config(cfg)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,8 +1,9 @@
 """What one job of an experiment's multirun does, and the status of a grid.
 
-A job trains one run with its recipe (``recipes/<algo>/<algo>.py`` in a subprocess, output
-appended to ``train.log`` in the run directory: the recipe skips a finished run and resumes an
-interrupted one), then evaluates the final checkpoint under the run's evaluation settings
+A job trains one run with the package's entry point (``python -m dcs_torchrl.training
+--config-name=<algo>``, what ``recipes/<algo>/<algo>.py`` runs) in a subprocess, output appended to
+``train.log`` in the run directory (it skips a finished run and resumes an interrupted one), then
+evaluates the final checkpoint under the run's evaluation settings
 (:mod:`dcs_torchrl.experiments.evaluate`, in this process). A failure is recorded, not raised, so
 that one failed run does not stop the sweep: ``<root>/status/<experiment>/<run id>.json`` says
 what failed and where its log is; :func:`grid_status` reads those files and the results to say
@@ -22,6 +23,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from hydra.core.hydra_config import HydraConfig
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
@@ -30,7 +32,7 @@ from dcs_torchrl.training.rundir import finished_results, flatten, write_json_at
 
 __all__ = ["StatusCallback", "check_backgrounds", "grid_runs", "grid_status", "recipe_command", "run_job", "status_text"]
 
-RECIPES = Path(__file__).resolve().parents[2] / "recipes"
+TRAINING = "dcs_torchrl.training"  # the module a job runs (python -m), one config per algorithm
 TRAIN_LOG = "train.log"
 STATES = ("done", "running", "interrupted", "failed", "missing")
 
@@ -84,7 +86,7 @@ def recipe_settings(cfg: DictConfig) -> dict[str, object]:
 
 
 def recipe_command(run: Run, cfg: DictConfig) -> list[str]:
-    """The recipe command line that trains ``run``."""
+    """The command line that trains ``run`` (the recipe's overrides, the package's entry point)."""
     algo, aug = method_parts(run.method)
     sweep = ",".join(f"{k}:{override_value(v)}" for k, v in run.point.sweep().items())
     env = run.point.env(OmegaConf.to_container(cfg.axes))
@@ -95,7 +97,7 @@ def recipe_command(run: Run, cfg: DictConfig) -> list[str]:
         *(f"{k}={override_value(v)}" for k, v in recipe_settings(cfg).items()),
         f"hydra.run.dir={override_value(str(run.dir(_root(cfg))))}",
     ]
-    return [sys.executable, str(RECIPES / algo / f"{algo}.py"), *overrides]
+    return [sys.executable, "-m", TRAINING, f"--config-name={algo}", *overrides]
 
 
 def _status_path(cfg: DictConfig, run: Run) -> Path:
@@ -119,7 +121,7 @@ def _tail(path: Path, lines: int = 15) -> str:
 
 
 def _train(run: Run, cfg: DictConfig) -> tuple[int | None, Path]:
-    """Runs the recipe (which skips a finished run and resumes an interrupted one).
+    """Trains ``run`` in a subprocess (which skips a finished run and resumes an interrupted one).
 
     Returns its exit code, ``None`` if another job is training the same run directory (two
     sweeps sharing a run, e.g. benchmarks and robustness launched together).
@@ -128,6 +130,7 @@ def _train(run: Run, cfg: DictConfig) -> tuple[int | None, Path]:
     run_dir.mkdir(parents=True, exist_ok=True)
     log = run_dir / TRAIN_LOG
     env = {**os.environ, "HYDRA_FULL_ERROR": "1"}  # the whole traceback in train.log
+    env["PYTHONSAFEPATH"] = "1"  # python -m: the installed package, not a dcs_torchrl/ in the launch directory
     if cfg.budget.threads is not None:
         env["OMP_NUM_THREADS"] = str(cfg.budget.threads)
     command = recipe_command(run, cfg)
@@ -220,12 +223,18 @@ def grid_status(cfg: DictConfig) -> dict[str, list[tuple[Run, str]]]:
     return by_state
 
 
-def relaunch_command(overrides: list[str], ids: list[str] | None) -> str:
-    """The multirun command with the same overrides, for the runs ``ids`` only (``None``: all)."""
+def launcher_script(cfg: DictConfig) -> Path:
+    """The experiments' ``run.py``: beside the config directory ``cfg`` was composed from
+    (``recipes/experiments/conf``), relative to the working directory when below it."""
+    hydra_cfg = cfg.hydra if "hydra" in cfg else HydraConfig.get()
+    sources = [s.path for s in hydra_cfg.runtime.config_sources if s.provider == "main" and s.schema == "file"]
+    script = Path(sources[0]).parent / "run.py" if sources else Path("recipes/experiments/run.py")
+    return script.relative_to(Path.cwd()) if script.is_relative_to(Path.cwd()) else script
+
+
+def relaunch_command(overrides: list[str], ids: list[str] | None, script: str | os.PathLike) -> str:
+    """The multirun command of ``script`` with the same overrides, for the runs ``ids`` only (``None``: all)."""
     kept = [o for o in overrides if not o.startswith(("run=", "hydra.mode="))]
-    script = RECIPES / "experiments" / "run.py"
-    if script.is_relative_to(Path.cwd()):
-        script = script.relative_to(Path.cwd())
     return shlex.join(["python", str(script), "-m", *kept, *([] if ids is None else ["run=" + ",".join(ids)])])
 
 
@@ -242,11 +251,12 @@ def status_text(cfg: DictConfig, overrides: list[str]) -> tuple[str, dict[str, l
         if len(by_state[state]) > 20:
             lines.append(f"  ... and {len(by_state[state]) - 20} more {state}")
     redo = [run.id for s in ("failed", "interrupted", "missing") for run, _ in by_state[s]]
+    script = launcher_script(cfg)
     if len(redo) == total:
-        lines.append("Launch the grid:\n  " + relaunch_command(overrides, None))
+        lines.append("Launch the grid:\n  " + relaunch_command(overrides, None, script))
     elif redo:
         lines.append("Relaunch the unfinished runs alone (or the whole grid: finished runs are skipped):\n  "
-                     + relaunch_command(overrides, redo))
+                     + relaunch_command(overrides, redo, script))
     return "\n".join(lines), by_state
 
 

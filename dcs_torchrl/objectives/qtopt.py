@@ -13,8 +13,9 @@ from torch import Tensor
 from torchrl.data.tensor_specs import Composite, TensorSpec
 from torchrl.envs.transforms import Transform
 from torchrl.objectives.common import LossModule
-from torchrl.objectives.utils import _vmap_func, dispatch_value_estimator, ValueEstimators
+from torchrl.objectives.utils import dispatch_value_estimator, ValueEstimators
 
+from dcs_torchrl._private_api import vmap_func
 from dcs_torchrl.agents.networks import action_bounds
 from dcs_torchrl.objectives.cem import cem_maximize
 from dcs_torchrl.objectives.drq import DrQEncoding
@@ -234,7 +235,7 @@ class QTOptLoss(DrQEncoding, LossModule):
         self._default_value_estimator()
 
     def _make_vmap(self):
-        self._vmap_qnetworkN0 = _vmap_func(
+        self._vmap_qnetworkN0 = vmap_func(
             self.qvalue_network, (None, 0), randomness=self.vmap_randomness, pseudo_vmap=self.deactivate_vmap
         )
 

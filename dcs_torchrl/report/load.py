@@ -20,33 +20,15 @@ from pathlib import Path
 import pandas as pd
 
 from dcs_torchrl.report.experiments import AXES, METHODS
+from dcs_torchrl.results import JSON_TYPES, RESULTS_FILE, SCHEMA
 
 __all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run", "one_budget"]
 
-RESULTS_FILE = "results.json"
-SCHEMA = 1
 EXPERIMENT_NAMES = ("robustness", "training", "benchmarks", "interactions")
 EVAL_SPLITS = ("train", "val")
 
 _NUMBER = (int, float)
-# Required top-level keys and their JSON types (None: JSON null allowed).
-REQUIRED: dict[str, tuple] = {
-    "schema": (int,),
-    "experiment": (str, None),
-    "method": (str,),
-    "algo": (str,),
-    "aug": (str,),
-    "domain": (str,),
-    "task": (str,),
-    "seed": (int,),
-    "steps": (int,),
-    "wall_time": _NUMBER,
-    "train_env": (dict,),
-    "eval_env": (dict,),
-    "sweep": (dict, None),
-    "eval": (dict,),
-    "config": (dict,),
-}
+REQUIRED: dict[str, tuple] = JSON_TYPES  # the record's keys and their JSON types (dcs_torchrl.results)
 REQUIRED_EVAL: dict[str, tuple] = {"mean": _NUMBER, "stderr": _NUMBER, "episodes": (int,), "returns": (list,)}
 REQUIRED_SWEEP: dict[str, tuple] = {"axis": (str,), "value": (int, float, str), "dynamic": (bool,)}
 

@@ -23,20 +23,26 @@ import torch
 from omegaconf import OmegaConf
 from torchrl.envs import CatFrames, Compose, EnvBase, ParallelEnv, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
-from dcs_torchrl.envs import EnvSettings, make_env, resolve_settings
+from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings, make_env, resolve_settings
 
-__all__ = ["ENV_KEYS", "close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options"]
+__all__ = ["ENV_KEYS", "close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings"]
 
-# The make_env settings a recipe's ``env`` / ``eval_env`` config groups may set.
-ENV_KEYS = (
-    "benchmark", "dynamic", "background_dir", "background_split", "camera_scale", "color_scale", "num_videos",
-    "background_blend", "blind", "ground_alpha", "action_repeat", "camera_id",
-)
+ENV_KEYS = ENV_OPTIONS  # what a recipe's ``env`` / ``eval_env`` group may set, besides ``env.domain`` / ``env.task``
 
 
 def env_options(section) -> dict:
-    """The make_env settings of a recipe's ``env`` / ``eval_env`` config section."""
-    return {k: v for k, v in OmegaConf.to_container(section, resolve=True).items() if k in ENV_KEYS}
+    """The make_env settings of a recipe's ``env`` / ``eval_env`` config section (all its keys
+    but the task; :func:`env_settings` refuses unknown ones)."""
+    return {k: v for k, v in OmegaConf.to_container(section, resolve=True).items() if k not in ("domain", "task")}
+
+
+def recipe_settings(cfg) -> tuple[EnvSettings, EnvSettings]:
+    """The training env and the evaluation env of a recipe config (``eval_env``: the non-null
+    overrides of ``env``), resolved and so validated."""
+    train_options = env_options(cfg.env)
+    eval_options = {**train_options, **{k: v for k, v in env_options(cfg.eval_env).items() if v is not None}}
+    return (env_settings(cfg.env.domain, cfg.env.task, train_options),
+            env_settings(cfg.env.domain, cfg.env.task, eval_options))
 
 
 def pixel_options(pixels) -> dict:
@@ -50,9 +56,6 @@ def env_settings(domain: str, task: str, options: Mapping) -> EnvSettings:
     Raises a clear error for unknown options, tasks or presets and for a background folder that
     does not exist, before any worker starts.
     """
-    unknown = sorted(set(options) - set(ENV_KEYS))
-    if unknown:
-        raise ValueError(f"unknown env option(s) {unknown}: the env config accepts {list(ENV_KEYS)}.")
     folder = options.get("background_dir")
     if folder is not None and not Path(folder).expanduser().exists():
         raise FileNotFoundError(

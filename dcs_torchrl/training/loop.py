@@ -23,6 +23,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
+from torchrl.checkpoint import GlobalRNGState
 from torchrl.collectors import Collector
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from tqdm import tqdm
@@ -30,15 +31,16 @@ from tqdm.contrib.logging import logging_redirect_tqdm
 
 from dcs_torchrl.evaluation import evaluate
 from dcs_torchrl.methods import method_name
+from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import ENV_KEYS, close_env, env_options, env_settings, make_pixel_env, pixel_options
+from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options, recipe_settings
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, read_metrics
 from dcs_torchrl.training.replay import FrameStackReplayBuffer
 from dcs_torchrl.training.rundir import RunDirectory
 from dcs_torchrl.training.timing import PhaseTimer
 
-__all__ = ["Agent", "acting_on", "train"]
+__all__ = ["Agent", "Workspace", "acting_on", "train"]
 
 EVAL_SEED_OFFSET = 10_000  # the evaluation envs' own seeds: seed + 10_000, + 1, ...
 log = logging.getLogger(__name__)  # a recipe's console and <recipe>.log in its run directory (Hydra)
@@ -60,20 +62,20 @@ class Agent(Protocol):
 AgentBuilder = Callable[[DictConfig, tuple, object, int], Agent]
 
 
-def _rng_state() -> dict:
-    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
-
-
 def _set_rng_state(state: dict) -> None:
-    torch.set_rng_state(state["torch"])
-    np.random.set_state(state["numpy"])
-    random.setstate(state["python"])
+    """Restores a checkpoint's global RNG state (TorchRL's ``GlobalRNGState``, CUDA's included;
+    checkpoints written before it hold ``torch`` / ``numpy`` / ``python`` only)."""
+    if "torch" in state:
+        torch.set_rng_state(state["torch"])
+        np.random.set_state(state["numpy"])
+        random.setstate(state["python"])
+    else:
+        GlobalRNGState().load_state_dict(state)
 
 
 def _check_config(cfg: DictConfig) -> None:
-    unknown = sorted(set(cfg.env) - set(ENV_KEYS) - {"domain", "task"}) + sorted(f"eval_{k}" for k in set(cfg.eval_env) - set(ENV_KEYS))
-    if unknown:
-        raise ValueError(f"unknown env setting(s) {unknown}: env and eval_env accept {list(ENV_KEYS)}.")
+    """Refuses bad settings before anything is written (the env settings: :func:`recipe_settings`)."""
+    method_name(cfg.algo.name, cfg.algo.aug)
     for name in ("total_frames", "replay_buffer.size", "algo.batch_size", "eval.episodes", "eval.interval", "checkpoint.interval"):
         value = OmegaConf.select(cfg, name)
         if not isinstance(value, int) or value < 1:
@@ -109,149 +111,214 @@ def _record_episode(env, policy, path: Path, max_steps: int) -> None:
 def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> dict:
     """Trains ``build_agent``'s agent as ``cfg`` says, writing every output into ``run_dir``.
 
-    Returns the ``results.json`` content (see ``docs/results_format.md``).
+    Set up (or skip a finished run), resume from the last checkpoint, collect and update, then
+    evaluate and write ``results.json`` (see ``docs/results_format.md``), which is returned.
     """
-    method = method_name(cfg.algo.name, cfg.algo.aug)
     _check_config(cfg)
-    config = OmegaConf.to_container(cfg, resolve=True)
-    train_settings = env_settings(cfg.env.domain, cfg.env.task, env_options(cfg.env))
-    eval_options = {**env_options(cfg.env), **{k: v for k, v in env_options(cfg.eval_env).items() if v is not None}}
-    eval_settings = env_settings(cfg.env.domain, cfg.env.task, eval_options)
-    run = RunDirectory(run_dir, config)
+    recipe_settings(cfg)  # bad env settings fail here, before the run directory is touched
+    run = RunDirectory(run_dir, OmegaConf.to_container(cfg, resolve=True))
     run.claim()
     done = run.finished(cfg.total_frames)
     if done is not None:
         log.info(f"{run.path}: already finished ({done['steps']} frames, eval {done['eval']['mean']:.1f}); nothing to do.")
         return done
+    with Workspace(cfg, build_agent, run) as workspace:
+        workspace.resume()
+        workspace.collect_and_update()
+        results = workspace.finish()
+    run.write_results(results)
+    return results
 
-    repeat = train_settings.action_repeat
-    total_steps = -(-cfg.total_frames // repeat)  # agent steps, rounded up
-    torch.manual_seed(cfg.seed)
-    np.random.seed(cfg.seed % 2**32)
-    random.seed(cfg.seed)
 
-    pixels = pixel_options(cfg.pixels)
-    env = make_pixel_env(train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
-    eval_env = None
-    try:
-        eval_env = make_pixel_env(eval_settings, num_workers=cfg.eval.num_workers, seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
-        observation_shape = tuple(env.observation_spec["pixels"].shape[-3:])
-        action_spec = env.action_spec[0] if env.batch_size else env.action_spec
-        agent = build_agent(cfg, observation_shape, action_spec, repeat)
-        eval_policy = acting_on(agent.policy, cfg.device)
-        buffer = FrameStackReplayBuffer(
-            cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
-            batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // repeat),
-        )
+class Workspace:
+    """One training run's live parts (envs, agent, replay, logger), as DrQ-v2's ``Workspace``.
 
-        counters = {"steps": 0, "updates": 0, "episodes": 0, "wall_time": 0.0, "metrics_rows": 0, "next_eval": cfg.eval.interval, "next_checkpoint": cfg.checkpoint.interval}
+    A context manager: leaving it closes the envs (spawned env workers must not outlive an error).
+    """
+
+    def __init__(self, cfg: DictConfig, build_agent: AgentBuilder, run: RunDirectory):
+        self.cfg, self.run = cfg, run
+        self.method = method_name(cfg.algo.name, cfg.algo.aug)
+        self.train_settings, self.eval_settings = recipe_settings(cfg)
+        self.repeat = self.train_settings.action_repeat
+        self.total_steps = -(-cfg.total_frames // self.repeat)  # agent steps, rounded up
+        torch.manual_seed(cfg.seed)
+        np.random.seed(cfg.seed % 2**32)
+        random.seed(cfg.seed)
+
+        pixels = pixel_options(cfg.pixels)
+        self.env = self.eval_env = None
+        self.env = make_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
+        try:
+            self.eval_env = make_pixel_env(self.eval_settings, num_workers=cfg.eval.num_workers,
+                                           seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
+            observation_shape = tuple(self.env.observation_spec["pixels"].shape[-3:])
+            action_spec = self.env.action_spec[0] if self.env.batch_size else self.env.action_spec
+            self.agent = build_agent(cfg, observation_shape, action_spec, self.repeat)
+            self.buffer = FrameStackReplayBuffer(
+                cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
+                batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // self.repeat),
+            )
+        except BaseException:
+            self.close()
+            raise
+        self.eval_policy = acting_on(self.agent.policy, cfg.device)
+        self.counters = {"steps": 0, "updates": 0, "episodes": 0, "wall_time": 0.0, "metrics_rows": 0,
+                         "next_eval": cfg.eval.interval, "next_checkpoint": cfg.checkpoint.interval}
+        self.timer = PhaseTimer()  # time/<phase>_ms rows: where each agent step's wall time goes
+
+    def __enter__(self) -> "Workspace":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        for env in (self.env, self.eval_env):
+            close_env(env)
+
+    @property
+    def frames(self) -> int:
+        return self.counters["steps"] * self.repeat
+
+    # ------------------------------------------------------------------------------ resume
+    def resume(self) -> None:
+        """Loads the last checkpoint (agent, replay, counters, RNG) if any, and opens the logger
+        at the matching row of ``metrics.csv``."""
+        cfg, run = self.cfg, self.run
         wandb_id = None
         resumed = load_latest(run.checkpoints)
         if resumed is not None:
             frames, state = resumed
-            agent.load_state_dict(state["agent"])
-            buffer.load_state_dict(state["buffer"])
-            counters, wandb_id = state["counters"], state.get("wandb_id")
+            self.agent.load_state_dict(state["agent"])
+            self.buffer.load_state_dict(state["buffer"])
+            self.counters, wandb_id = state["counters"], state.get("wandb_id")
             _set_rng_state(state["rng"])
             log.info(f"{run.path}: resuming from the checkpoint at {frames} frames.")
-            resume = (counters["metrics_rows"], resumed[0])
+            resume = (self.counters["metrics_rows"], frames)
         elif (run.path / "metrics.csv").exists():  # this run (claim() checked), stopped before its first checkpoint
             log.info(f"{run.path}: restarting from frame 0 (stopped before its first checkpoint).")
             resume = (0, 0)
         else:
             resume = None
-        logger = MetricsLogger(
-            run.path, backend=cfg.logger.backend, resume=resume,
-            project=cfg.logger.project, run_name=f"{method} {cfg.env.domain}-{cfg.env.task} seed {cfg.seed}",
-            wandb_id=wandb_id, config=config, wall_offset=counters["wall_time"],
+        self.logger = MetricsLogger(
+            run.path, backend=cfg.logger.backend, resume=resume, project=cfg.logger.project,
+            run_name=f"{self.method} {cfg.env.domain}-{cfg.env.task} seed {cfg.seed}",
+            wandb_id=wandb_id, config=run.config, wall_offset=self.counters["wall_time"],
         )
-        start, start_time = counters["steps"], time.time() - counters["wall_time"]
+        self.start_time = time.time() - self.counters["wall_time"]
 
-        def checkpoint() -> None:
-            counters["wall_time"], counters["metrics_rows"] = time.time() - start_time, logger.rows
-            state = {"agent": agent.state_dict(), "buffer": buffer.state_dict(), "counters": dict(counters),
-                     "rng": _rng_state(), "wandb_id": logger.wandb_id, "config": run.identity}
-            save_checkpoint(run.checkpoints, counters["steps"] * repeat, state, keep=cfg.checkpoint.keep)
+    def checkpoint(self) -> None:
+        """Saves everything a resumed run needs to continue as if never stopped."""
+        self.counters["wall_time"], self.counters["metrics_rows"] = time.time() - self.start_time, self.logger.rows
+        state = {"agent": self.agent.state_dict(), "buffer": self.buffer.state_dict(), "counters": dict(self.counters),
+                 "rng": GlobalRNGState().state_dict(), "wandb_id": self.logger.wandb_id, "config": self.run.identity}
+        save_checkpoint(self.run.checkpoints, self.frames, state, keep=self.cfg.checkpoint.keep)
 
+    # ------------------------------------------------------------------- collect and update
+    def collect_and_update(self) -> None:
+        """DrQ's loop: one agent step, into the replay, then ``updates_per_step`` updates (after
+        the random seed steps); logging, periodic evaluation and checkpoints on their cadence."""
+        cfg, counters = self.cfg, self.counters
+        start = counters["steps"]
         collector = Collector(
-            env, agent.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
-            total_frames=max(total_steps - start, 1), init_random_frames=max(cfg.collector.seed_steps - start, 0),
+            self.env, self.agent.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
+            total_frames=max(self.total_steps - start, 1), init_random_frames=max(cfg.collector.seed_steps - start, 0),
             auto_register_policy_transforms=False,
             **({} if cfg.device == "cpu" else {"policy_device": cfg.device, "env_device": "cpu", "storing_device": "cpu"}),
         )
-        losses: dict[str, list[float]] = defaultdict(list)
-        timer = PhaseTimer()  # time/<phase>_ms rows: where each agent step's wall time goes
-        last_log, tick = counters["steps"], time.time()
-        bar = tqdm(total=total_steps * repeat, initial=start * repeat, unit="frame", disable=not cfg.progress,
-                    dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
+        self.losses: dict[str, list[float]] = defaultdict(list)
+        self.last_log, self.tick = start, time.time()
+        bar = tqdm(total=self.total_steps * self.repeat, initial=start * self.repeat, unit="frame",
+                   disable=not cfg.progress, dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
         with logging_redirect_tqdm():  # log lines above the progress bar
             batches = iter(collector)
-            while counters["steps"] < total_steps:
-                with timer("collect"):  # the policy's actions and the env steps
+            while counters["steps"] < self.total_steps:
+                with self.timer("collect"):  # the policy's actions and the env steps
                     data = next(batches, None)
                 if data is None:
                     break
-                with timer("extend"):
-                    buffer.extend(data)
+                with self.timer("extend"):
+                    self.buffer.extend(data)
                 counters["steps"] += data.numel()
-                frames = counters["steps"] * repeat
-                finished = data["next", "done"].squeeze(-1)
-                returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
-                for episode_return in returns:
-                    counters["episodes"] += 1
-                    logger.log(frames, {"train/episode_return": episode_return, "train/episodes": counters["episodes"]})
+                returns = self._log_episodes(data)
                 if counters["steps"] >= cfg.collector.seed_steps:
-                    for _ in range(data.numel() * cfg.algo.updates_per_step):
-                        with timer("sample"):
-                            batch = buffer.sample()
-                        with timer("update"):
-                            for name, value in agent.update(batch, counters["updates"]).items():
-                                losses[name].append(float(torch.as_tensor(value).detach()))
-                        counters["updates"] += 1
-                bar.update(data.numel() * repeat)
+                    self._update(data.numel() * cfg.algo.updates_per_step)
+                bar.update(data.numel() * self.repeat)
                 if returns:
                     bar.set_postfix(ret=f"{returns[-1]:.0f}", upd=counters["updates"], refresh=False)
-                if frames - last_log * repeat >= cfg.logger.interval or counters["steps"] >= total_steps:
-                    elapsed = max(time.time() - tick, 1e-9)
-                    logger.log(frames, {
-                        **{name: sum(v) / len(v) for name, v in losses.items()},
-                        **timer.report(counters["steps"] - last_log),
-                        "time/fps": (counters["steps"] - last_log) * repeat / elapsed,
-                        "time/elapsed": time.time() - start_time, "train/updates": counters["updates"],
-                        "train/buffer_gb": buffer.nbytes() / 1e9,
-                    })
-                    losses.clear()
-                    last_log, tick = counters["steps"], time.time()
-                if frames >= counters["next_eval"] and counters["steps"] < total_steps:
-                    with timer("eval"):
-                        result = evaluate(eval_env, eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
-                    logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
-                    log.info(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
-                    counters["next_eval"] += cfg.eval.interval * (1 + (frames - counters["next_eval"]) // cfg.eval.interval)
-                if frames >= counters["next_checkpoint"] and counters["steps"] < total_steps:
-                    with timer("checkpoint"):
-                        checkpoint()
-                    counters["next_checkpoint"] += cfg.checkpoint.interval * (1 + (frames - counters["next_checkpoint"]) // cfg.checkpoint.interval)
+                self._log_progress()
+                if self.frames >= counters["next_eval"] and counters["steps"] < self.total_steps:
+                    with self.timer("eval"):
+                        self._evaluate_periodically()
+                if self.frames >= counters["next_checkpoint"] and counters["steps"] < self.total_steps:
+                    with self.timer("checkpoint"):
+                        self.checkpoint()
+                    counters["next_checkpoint"] = _next_due(self.frames, counters["next_checkpoint"], cfg.checkpoint.interval)
         bar.close()
         collector.shutdown()
 
-        frames = counters["steps"] * repeat
-        checkpoint()  # before the final evaluation's rows: a resumed run logs them once
-        result = evaluate(eval_env, eval_policy, cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
-        logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
+    def _log_episodes(self, data: TensorDictBase) -> list[float]:
+        """One ``train/episode_return`` row per episode that ended in ``data``; their returns."""
+        finished = data["next", "done"].squeeze(-1)
+        returns = data["next", "episode_reward"].squeeze(-1)[finished].tolist()
+        for episode_return in returns:
+            self.counters["episodes"] += 1
+            self.logger.log(self.frames, {"train/episode_return": episode_return, "train/episodes": self.counters["episodes"]})
+        return returns
+
+    def _update(self, updates: int) -> None:
+        for _ in range(updates):
+            with self.timer("sample"):
+                batch = self.buffer.sample()
+            with self.timer("update"):
+                for name, value in self.agent.update(batch, self.counters["updates"]).items():
+                    self.losses[name].append(float(torch.as_tensor(value).detach()))
+            self.counters["updates"] += 1
+
+    def _log_progress(self) -> None:
+        """Every ``logger.interval`` frames (and at the end): mean losses, phase times, fps."""
+        steps = self.counters["steps"]
+        if self.frames - self.last_log * self.repeat < self.cfg.logger.interval and steps < self.total_steps:
+            return
+        elapsed = max(time.time() - self.tick, 1e-9)
+        self.logger.log(self.frames, {
+            **{name: sum(v) / len(v) for name, v in self.losses.items()},
+            **self.timer.report(steps - self.last_log),
+            "time/fps": (steps - self.last_log) * self.repeat / elapsed,
+            "time/elapsed": time.time() - self.start_time, "train/updates": self.counters["updates"],
+            "train/buffer_gb": self.buffer.nbytes() / 1e9,
+        })
+        self.losses.clear()
+        self.last_log, self.tick = steps, time.time()
+
+    def _evaluate_periodically(self) -> None:
+        cfg, frames = self.cfg, self.frames
+        result = evaluate(self.eval_env, self.eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
+        self.logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
+        log.info(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
+        self.counters["next_eval"] = _next_due(frames, self.counters["next_eval"], cfg.eval.interval)
+
+    # ------------------------------------------------------------------------------ finish
+    def finish(self) -> dict:
+        """The final checkpoint, evaluation, video and learning curve; the ``results.json`` record."""
+        cfg, frames = self.cfg, self.frames
+        self.checkpoint()  # before the final evaluation's rows: a resumed run logs them once
+        result = evaluate(self.eval_env, self.eval_policy, cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
+        self.logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
         log.info(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
         if cfg.eval.video:
-            _record_episode(eval_env, eval_policy, run.path / "eval_episode.mp4", max_steps=-(-1000 // repeat))
-        logger.close()
-        plot_learning_curve(read_metrics(logger.path), run.path / "learning_curve.png", title=f"{method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")
-        results = {
-            "schema": 1, "experiment": cfg.experiment, "method": method, "algo": cfg.algo.name, "aug": cfg.algo.aug,
-            "domain": cfg.env.domain, "task": cfg.env.task, "seed": cfg.seed, "steps": frames,
-            "wall_time": time.time() - start_time, "train_env": train_settings.as_dict(), "eval_env": eval_settings.as_dict(),
-            "sweep": config.get("sweep"), "eval": result.to_dict(), "config": config,
-        }
-    finally:  # an error must not leave spawned env workers behind (the process would never exit)
-        for e in (env, eval_env):
-            close_env(e)
-    run.write_results(results)
-    return results
+            _record_episode(self.eval_env, self.eval_policy, self.run.path / "eval_episode.mp4", max_steps=-(-1000 // self.repeat))
+        self.logger.close()
+        plot_learning_curve(read_metrics(self.logger.path), self.run.path / "learning_curve.png",
+                            title=f"{self.method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")
+        return RunResults.from_config(
+            self.run.config, experiment=cfg.experiment, steps=frames, wall_time=time.time() - self.start_time,
+            train_env=self.train_settings.as_dict(), eval_env=self.eval_settings.as_dict(),
+            sweep=self.run.config.get("sweep"), eval=result.to_dict(),
+        ).as_dict()
+
+
+def _next_due(frames: int, due: int, interval: int) -> int:
+    """The next multiple of ``interval`` after ``due`` that lies beyond ``frames``."""
+    return due + interval * (1 + (frames - due) // interval)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 from pathlib import Path
 
 import pytest
@@ -103,12 +104,12 @@ def test_sweeper_params_list_every_run_and_parse():
     assert len(grid_runs(cfg)) == 2 * 2 * (3 * 2 * 2 + 1) and all(r.method == "SAC" for r in grid_runs(cfg))
 
 
-def test_recipe_command_uses_the_recipes_override_names_and_parses():
+def test_recipe_command_runs_the_package_with_the_recipes_override_names_and_parses():
     cfg = config("training", "smoke")
     run = next(r for r in grid_runs(cfg) if r.point == Point("num_videos", 8, True) and r.method == "QT-Opt+DrQ")
     command = recipe_command(run, cfg)
-    assert command[1].endswith("recipes/qtopt/qtopt.py")
-    overrides = {o.key_or_group: o.value() for o in OverridesParser.create().parse_overrides(command[2:])}
+    assert command[1:4] == ["-m", "dcs_torchrl.training", "--config-name=qtopt"]  # no file of recipes/ is run
+    overrides = {o.key_or_group: o.value() for o in OverridesParser.create().parse_overrides(command[4:])}
     assert overrides["algo.aug"] == "drq" and overrides["env.domain"] == run.domain and overrides["seed"] == run.seed
     assert overrides["env.num_videos"] == 8 and overrides["env.background_blend"] == 1.0 and overrides["env.dynamic"] is True
     assert overrides["experiment"] == "training" and overrides["total_frames"] == 400
@@ -150,6 +151,7 @@ def test_status_reads_results_status_files_and_checkpoints(tmp_path):
     assert "ValueError: boom" in text and "1 done" in text and "1 failed" in text
     relaunch = text.splitlines()[-1]
     assert "run.py -m experiment=training" in relaunch and failed.id in relaunch and done.id not in relaunch
+    assert Path(shlex.split(relaunch)[1]).resolve() == CONF.parent / "run.py"  # the one beside the configs
 
 
 def test_a_trained_run_with_missing_evaluations_is_not_done(tmp_path):

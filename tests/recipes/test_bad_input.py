@@ -4,21 +4,18 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
+from hydra import compose, initialize_config_module
 from hydra.errors import ConfigCompositionException
 
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunMismatchError, train
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 def config(algo: str, *overrides: str):
-    with initialize_config_dir(str(ROOT / "recipes" / algo), version_base=None):
-        return compose("config", overrides=list(overrides))
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        return compose(algo, overrides=list(overrides))
 
 
 @pytest.mark.parametrize(
@@ -60,20 +57,20 @@ def test_resume_with_another_config_is_refused_and_overwrites_nothing(tmp_path):
 
 FAILING_RUN = """
 import sys
-from hydra import compose, initialize_config_dir
+from hydra import compose, initialize_config_module
 from dcs_torchrl.training import train
 
 def broken_agent(*args):
     raise RuntimeError("the agent could not be built")
 
-with initialize_config_dir(sys.argv[1], version_base=None):
-    cfg = compose("config", overrides=["pixels.image_size=48", "pixels.render_profile=fast", "progress=false"])
+with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+    cfg = compose(sys.argv[1], overrides=["pixels.image_size=48", "pixels.render_profile=fast", "progress=false"])
 train(cfg, broken_agent, sys.argv[2])
 """
 
 
 def test_an_error_after_the_env_workers_started_ends_the_process(tmp_path):
     # the spawned ParallelEnv workers are closed on the way out; left open, the process never exits
-    done = subprocess.run([sys.executable, "-c", FAILING_RUN, str(ROOT / "recipes" / "sac"), str(tmp_path / "run")],
+    done = subprocess.run([sys.executable, "-c", FAILING_RUN, "sac", str(tmp_path / "run")],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "the agent could not be built" in done.stderr

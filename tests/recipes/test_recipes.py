@@ -24,7 +24,13 @@ TINY = [
 
 
 def recipe(algo: str, run_dir: Path, *overrides: str, **kwargs) -> subprocess.CompletedProcess | subprocess.Popen:
-    command = [sys.executable, str(ROOT / "recipes" / algo / f"{algo}.py"), *TINY, *overrides, f"hydra.run.dir={run_dir}"]
+    """Runs ``recipes/<algo>/<algo>.py``, or with ``package=True`` the package's entry point that the
+    experiment launcher runs (``python -m dcs_torchrl.training --config-name=<algo>``)."""
+    if kwargs.pop("package", False):
+        entry = ["-m", "dcs_torchrl.training", f"--config-name={algo}"]
+    else:
+        entry = [str(ROOT / "recipes" / algo / f"{algo}.py")]
+    command = [sys.executable, *entry, *TINY, *overrides, f"hydra.run.dir={run_dir}"]
     if kwargs.pop("background", False):
         return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     return subprocess.run(command, capture_output=True, text=True, timeout=600, **kwargs)
@@ -53,6 +59,9 @@ def test_recipe_runs_end_to_end_and_is_skipped_once_finished(tmp_path, algo, aug
     before = (run_dir / "metrics.csv").read_bytes()
     again = recipe(algo, run_dir, f"algo.aug={aug}", "env.benchmark=easy", "seed=3")
     assert again.returncode == 0 and "already finished" in again.stdout
+    # the package's entry point, from outside the clone, finds the same run (same run_config.json)
+    package = recipe(algo, run_dir, f"algo.aug={aug}", "env.benchmark=easy", "seed=3", package=True, cwd=tmp_path)
+    assert package.returncode == 0 and "already finished" in package.stdout, package.stdout + package.stderr
     assert (run_dir / "metrics.csv").read_bytes() == before
 
 

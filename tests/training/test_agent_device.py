@@ -7,22 +7,18 @@ The ``meta`` device cannot hold TensorDictParams here, so the test records every
 parameter or buffer of the loss or the policy was moved to the agent's device (itself or an
 ancestor).
 """
-from pathlib import Path
-
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
+from hydra import compose, initialize_config_module
 from torch import nn
 from torchrl.data import Bounded
 
 from dcs_torchrl.methods import agent_class
 
-RECIPES = Path(__file__).resolve().parents[2] / "recipes"
-
 
 def _moved_modules(monkeypatch, algo: str):
-    with initialize_config_dir(str(RECIPES / algo), version_base=None):
-        cfg = compose("config", overrides=["network.hidden_dim=16", "algo.aug=drq"])
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose(algo, overrides=["network.hidden_dim=16", "algo.aug=drq"])
     moved = []
     original = nn.Module.to
 

@@ -1,0 +1,89 @@
+"""Every private API of TorchRL and dm_control the package uses, in one place.
+
+Each entry names the symbol, where the package relies on it, and why no public API does the
+job (TorchRL 0.14, dm_control 1.0). ``tests/test_private_api.py`` checks that every symbol is
+still there, so that an upgrade that removes one fails with a message naming it and its user,
+not deep inside a rollout or an update. Public APIs are used everywhere else.
+
+=============================================  ==============================================
+symbol                                         used by, and why
+=============================================  ==============================================
+``EnvBase._set_seed`` (instance attribute)     :mod:`dcs_torchrl.distractions.base`: TorchRL
+                                               has no seed hook for transforms
+                                               (``TransformedEnv.set_seed`` seeds the base
+                                               env only), so ``env.set_seed(s)`` reaches the
+                                               distractions through the base env's hook.
+``Transform._container``                       :mod:`dcs_torchrl._scene`: the *live*
+                                               container chain (``Transform.parent`` is built
+                                               from clones, and ``container`` resolves
+                                               lazily).
+``DMControlEnv._env``                          :mod:`dcs_torchrl._scene`: the wrapped
+                                               dm_control env, for its ``physics`` (no public
+                                               accessor).
+``Physics._contexts``,                         :mod:`dcs_torchrl.render`: a render context
+``Physics._free_rendering_contexts``           made by someone else with other settings is
+                                               freed before the suite's own is made.
+``torchrl.envs.transforms.utils.               :mod:`dcs_torchrl.agents.augment`: an
+_set_missing_tolerance``                       augmentation applied at reset tolerates the
+                                               missing ``pixels`` key, as TorchRL's own
+                                               transforms do.
+``torchrl.objectives.utils._vmap_func``        :mod:`dcs_torchrl.objectives.qtopt`: the Q
+                                               heads evaluated at once, as ``SACLoss`` does.
+``SACLoss._compute_target_v2``,                :mod:`dcs_torchrl.objectives.sac`: DrQ's target
+``SACLoss._vmap_qnetworkN0``, ``._alpha``      (averaged over K augmented next observations)
+                                               replaces SACLoss's target computation, its one
+                                               extension point for the target.
+=============================================  ==============================================
+"""
+from __future__ import annotations
+
+import weakref
+
+from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_tolerance
+from torchrl.objectives.utils import _vmap_func as vmap_func
+
+__all__ = [
+    "PRIVATE_SYMBOLS", "base_set_seed", "container_of", "dm_physics", "free_foreign_render_contexts",
+    "replace_set_seed", "set_missing_tolerance", "vmap_func",
+]
+
+#: ``(owner, attribute, user)`` of every private symbol above (the test checks each one).
+PRIVATE_SYMBOLS = (
+    ("torchrl.envs.EnvBase", "_set_seed", "dcs_torchrl.distractions.base"),
+    ("torchrl.envs.Transform", "_container", "dcs_torchrl._scene"),
+    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene"),
+    ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render"),
+    ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render"),
+    ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.agents.augment"),
+    ("torchrl.objectives.utils", "_vmap_func", "dcs_torchrl.objectives.qtopt"),
+    ("torchrl.objectives.SACLoss", "_compute_target_v2", "dcs_torchrl.objectives.sac"),
+    ("torchrl.objectives.SACLoss", "_vmap_qnetworkN0", "dcs_torchrl.objectives.sac"),
+    ("torchrl.objectives.SACLoss", "_alpha", "dcs_torchrl.objectives.sac"),
+)
+
+
+def base_set_seed(base_env):
+    """The seed hook ``base_env.set_seed`` calls (possibly one installed by :func:`replace_set_seed`)."""
+    return base_env.__dict__.get("_set_seed", base_env._set_seed)
+
+
+def replace_set_seed(base_env, hook) -> None:
+    """Makes ``base_env.set_seed(s)`` call ``hook(s)`` instead of the env's own ``_set_seed``."""
+    base_env.__dict__["_set_seed"] = hook
+
+
+def container_of(transform):
+    """The env or ``Compose`` ``transform`` is attached to (``None`` if none), without cloning."""
+    ref = transform.__dict__.get("_container")
+    return ref() if isinstance(ref, weakref.ref) else ref
+
+
+def dm_physics(base_env):
+    """The dm_control ``Physics`` of a TorchRL ``DMControlEnv`` / ``DMControlWrapper``."""
+    return base_env._env.physics
+
+
+def free_foreign_render_contexts(physics) -> None:
+    """Frees ``physics``'s render contexts if it has any (made elsewhere, with other settings)."""
+    if getattr(physics, "_contexts", None):
+        physics._free_rendering_contexts()

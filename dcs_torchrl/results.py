@@ -1,0 +1,93 @@
+"""The ``results.json`` record: one typed definition that runs write and the report reads.
+
+A training run (:func:`dcs_torchrl.training.train`) and an evaluation-only run
+(:func:`dcs_torchrl.experiments.evaluate.evaluate_checkpoint`) both build a :class:`RunResults`
+with :meth:`RunResults.from_config` and write its :meth:`~RunResults.as_dict` (``RunDirectory.write_results``); :mod:`dcs_torchrl.report.load` validates a
+decoded file against :data:`JSON_TYPES`, which is derived from the same fields. The format:
+``docs/results_format.md``. Pure data: no torch, no pandas.
+
+>>> record = RunResults.from_config(
+...     {"seed": 0, "algo": {"name": "sac", "aug": "rad"}, "env": {"domain": "cartpole", "task": "swingup"}},
+...     experiment="benchmarks", steps=100000, wall_time=1.0, train_env={}, eval_env={},
+...     sweep={"axis": "benchmark", "value": "none", "dynamic": False},
+...     eval={"mean": 800.0, "stderr": 1.0, "episodes": 20, "returns": []})
+>>> record.method, list(record.as_dict())[:3]
+('SAC+RAD', ['schema', 'experiment', 'method'])
+>>> JSON_TYPES["sweep"], JSON_TYPES["wall_time"]
+((<class 'dict'>, None), (<class 'int'>, <class 'float'>))
+"""
+from __future__ import annotations
+
+import dataclasses
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Optional
+
+from dcs_torchrl.methods import method_name
+
+__all__ = ["JSON_TYPES", "RESULTS_FILE", "RunResults", "SCHEMA"]
+
+RESULTS_FILE = "results.json"
+SCHEMA = 1
+
+
+@dataclass(frozen=True)
+class RunResults:
+    """One run's outcome. Field order is the file's key order.
+
+    Attributes:
+        schema: the format version (:data:`SCHEMA`).
+        experiment: ``robustness``, ``training``, ``benchmarks``, ``interactions`` or ``None``.
+        method, algo, aug: the paper's method name and the recipe's ``algo.name`` / ``algo.aug``.
+        domain, task, seed: what was trained.
+        steps: frames trained (counting action repeat).
+        wall_time: seconds.
+        train_env, eval_env: the resolved env settings (``EnvSettings.as_dict()``).
+        sweep: what the run varies in its experiment (``axis``, ``value``, ``dynamic``[, ``eval_split``]).
+        eval: the final deterministic evaluation (``EvalResult.to_dict()``).
+        config: the run's full resolved config.
+    """
+
+    schema: int
+    experiment: Optional[str]
+    method: str
+    algo: str
+    aug: str
+    domain: str
+    task: str
+    seed: int
+    steps: int
+    wall_time: float
+    train_env: dict
+    eval_env: dict
+    sweep: Optional[dict]
+    eval: dict
+    config: dict
+
+    @classmethod
+    def from_config(cls, config: Mapping, *, experiment: str | None, steps: int, wall_time: float,
+                    train_env: Mapping, eval_env: Mapping, sweep: Mapping | None, eval: Mapping) -> "RunResults":
+        """The record of a run of ``config`` (a recipe's resolved config, as a dict)."""
+        algo, aug = config["algo"]["name"], config["algo"]["aug"]
+        return cls(
+            schema=SCHEMA, experiment=experiment, method=method_name(algo, aug), algo=algo, aug=aug,
+            domain=config["env"]["domain"], task=config["env"]["task"], seed=int(config["seed"]), steps=int(steps),
+            wall_time=float(wall_time), train_env=dict(train_env), eval_env=dict(eval_env),
+            sweep=None if sweep is None else dict(sweep), eval=dict(eval), config=dict(config),
+        )
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+def _json_types(annotation) -> tuple:
+    """The JSON types a field of ``annotation`` may hold (``None``: null); a float may be written as an int."""
+    args = typing.get_args(annotation)
+    if args:  # Optional[X]
+        return tuple(t for a in args if a is not type(None) for t in _json_types(a)) + (None,)
+    return (int, float) if annotation is float else (annotation,)
+
+
+#: Every key of the file and the JSON types it may hold.
+JSON_TYPES: dict[str, tuple] = {name: _json_types(kind) for name, kind in typing.get_type_hints(RunResults).items()}

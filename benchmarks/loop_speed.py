@@ -1,6 +1,6 @@
 """Seconds per agent step of the whole recipe loop against seconds per update of the same agent alone.
 
-    python benchmarks/loop_speed.py [--methods rad drq] [--batch-sizes 128] [--steps 150] [--updates 20]
+    python benchmarks/loop_speed.py [--methods rad drq] [--batch-sizes 128] [--steps 150] [--updates 20] [--rounds 3]
 
 For each method and batch size, in one run:
 
@@ -13,7 +13,9 @@ For each method and batch size, in one run:
   timed updates (after 2 warm-up updates) on batches sampled from a replay buffer of random frames.
 
 Both run in their own subprocess with the machine's default threads (set ``OMP_NUM_THREADS`` to
-change them for both) and ``retain_freed_memory`` as the recipe does. The ratio loop / update is
+change them for both) and ``retain_freed_memory`` as the recipe does. ``--rounds`` alternates the
+two measurements (update, loop, update, loop, ...) and reports the median of each: one update
+measurement alone has varied by ~15% between runs on these machines. The ratio loop / update is
 the claim; absolute figures depend on the CPU (printed with them).
 """
 from __future__ import annotations
@@ -154,6 +156,11 @@ def measure_update(method: str, batch: int, updates: int) -> dict:
     return {"update_s": (time.perf_counter() - start) / updates, "threads": torch.get_num_threads()}
 
 
+def median(results: list[dict], key: str) -> dict:
+    """The result whose ``key`` is the median (the lower middle one of an even count)."""
+    return sorted(results, key=lambda r: r[key])[(len(results) - 1) // 2]
+
+
 def child(args) -> None:
     if args.child == "update":
         print(json.dumps(measure_update(args.methods[0], args.batch_sizes[0], args.updates)))
@@ -175,6 +182,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=150, help="timed agent steps of the loop (after the seed steps)")
     parser.add_argument("--seed-steps", type=int, default=200, help="random agent steps before learning")
     parser.add_argument("--updates", type=int, default=20, help="timed updates of the agent alone")
+    parser.add_argument("--rounds", type=int, default=1, help="alternating measurements of each; medians are reported")
     parser.add_argument("--child", choices=["loop", "update"], help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -186,11 +194,13 @@ def main() -> None:
     rows = []
     for batch in args.batch_sizes:
         for method in args.methods:
-            update = run_child("update", method, batch, args)
-            loop = run_child("loop", method, batch, args)
-            rows.append((method, batch, loop, update))
-            print(f"  {method_name('sac', method)} batch {batch}: loop {loop['loop_s_per_step']:.3f} s/step, "
-                  f"update alone {update['update_s']:.3f} s", flush=True)
+            updates, loops = [], []
+            for _ in range(args.rounds):
+                updates.append(run_child("update", method, batch, args))
+                loops.append(run_child("loop", method, batch, args))
+                print(f"  {method_name('sac', method)} batch {batch}: loop {loops[-1]['loop_s_per_step']:.3f} s/step, "
+                      f"update alone {updates[-1]['update_s']:.3f} s", flush=True)
+            rows.append((method, batch, median(loops, "loop_s_per_step"), median(updates, "update_s")))
     print("\n| method | batch | whole loop s/agent step | update alone s | loop / update | "
           "in the loop: collect | sample | update (ms/step) |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")

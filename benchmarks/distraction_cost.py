@@ -1,24 +1,33 @@
 """What each distraction of the medium dynamic benchmark adds to an agent step (default profile).
 
-    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5]
+    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5] [--upload-steps 500]
 
 The medium dynamic env against the undistracted one, and against the same env with only one
 distraction switched on (the others at scale 0), stepped in interleaved rounds like
-``env_speed.py``; per-step cost in ms and relative to the undistracted env.
+``env_speed.py``; per-step cost in ms and relative to the undistracted env. "medium dynamic,
+whole sky" is the same env uploading all six sky faces whole at every new frame (what the suite
+did before it sent only the part of the sky the camera sees; same pixels). Then the two medium
+dynamic envs step ``--upload-steps`` more steps, interleaved in chunks, with the time spent in
+the sky upload (the render context's ``upload_cube`` + ``upload_visible``) measured around it.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import statistics
+import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import torch  # noqa: E402
-from env_speed import interleaved_medians  # noqa: E402  (benchmarks/ is the script's directory)
+from env_speed import interleaved_medians, time_steps  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
+from dcs_torchrl import render  # noqa: E402
+from dcs_torchrl._scene import locate  # noqa: E402
 
 OFF = dict(camera_scale=0.0, color_scale=0.0, num_videos=0)
+WHOLE_SKY = "medium dynamic, whole sky"
 
 
 def variants(domain: str, task: str) -> dict:
@@ -32,7 +41,42 @@ def variants(domain: str, task: str) -> dict:
         "background only, dynamic": lambda: dcs.make_env(domain, task, **medium, **only("num_videos", True)),
         "medium static": lambda: dcs.make_env(domain, task, **medium, dynamic=False),
         "medium dynamic": lambda: dcs.make_env(domain, task, **medium, dynamic=True),
+        WHOLE_SKY: lambda: dcs.make_env(domain, task, **medium, dynamic=True),
     }
+
+
+def context_of(env) -> render._Context:
+    """The render context of a suite env (after its first reset)."""
+    return render._CONTEXTS[locate(env.transform[-1], strict=True).physics]
+
+
+class UploadClock:
+    """Accumulates the wall time a render context spends in its sky upload."""
+
+    def __init__(self, context):
+        self.seconds = 0.0
+        for name in ("upload_cube", "upload_visible"):
+            method = getattr(context, name)
+
+            def timed(*args, _method=method):
+                start = time.perf_counter()
+                _method(*args)
+                self.seconds += time.perf_counter() - start
+
+            setattr(context, name, timed)
+
+
+def upload_cost(envs: dict, steps: int, chunk: int = 50) -> dict:
+    """Median over chunks of the sky upload's seconds per step, envs stepped in interleaved chunks."""
+    clocks = {name: UploadClock(context_of(env)) for name, env in envs.items()}
+    tds = {name: env.reset() for name, env in envs.items()}
+    per_step = {name: [] for name in envs}
+    for _ in range(max(1, steps // chunk)):
+        for name, env in envs.items():
+            before = clocks[name].seconds
+            _, tds[name] = time_steps(env, tds[name], chunk)
+            per_step[name].append((clocks[name].seconds - before) / chunk)
+    return {name: statistics.median(v) for name, v in per_step.items()}
 
 
 def main():
@@ -41,15 +85,25 @@ def main():
     parser.add_argument("task")
     parser.add_argument("--steps", type=int, default=150)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--upload-steps", type=int, default=500)
     args = parser.parse_args()
     torch.set_num_threads(1)
     envs = {name: make() for name, make in variants(args.domain, args.task).items()}
+    envs[WHOLE_SKY].reset()
+    context_of(envs[WHOLE_SKY]).upload_all_faces = True  # the reference path, this env only
     step, _ = interleaved_medians(envs, args.steps, args.rounds, resets=1)
     print(f"{args.domain} {args.task}, default profile, median of {args.rounds} rounds x {args.steps} steps")
     print("| env | ms/step | vs none |")
     print("|---|---:|---:|")
     for name in envs:
         print(f"| {name} | {1e3 * step[name]:.2f} | {100 * (step[name] / step['none'] - 1):+.1f}% |")
+    print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step "
+          f"(whole sky: {step[WHOLE_SKY] / step['none']:.3f})")
+    if args.upload_steps > 0:
+        upload = upload_cost({name: envs[name] for name in ("medium dynamic", WHOLE_SKY)}, args.upload_steps)
+        print(f"sky upload per agent step, median of {args.upload_steps // 50} interleaved chunks of 50 steps: "
+              f"{1e3 * upload['medium dynamic']:.3f} ms (part seen) vs {1e3 * upload[WHOLE_SKY]:.3f} ms (whole sky), "
+              f"ratio {upload['medium dynamic'] / upload[WHOLE_SKY]:.2f}")
     for env in envs.values():
         env.close()
 

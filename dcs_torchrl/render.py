@@ -13,12 +13,18 @@ fast       no MSAA, small shadow map, ...   mean difference ≤ 1 grey level, ~2
 ========== ================================ ===============================================
 
 Textures edited by the distractions (the skybox) are uploaded here, right before the
-render, so that a frame-skip of k costs one upload and one render per agent step
-(see :meth:`_Context.upload_cube` for how that upload is kept cheap).
+render, so that a frame-skip of k costs one upload and one render per agent step. Only
+what the render samples is sent: of the six cube faces, the rectangles the camera's view
+frustum covers (widened to cover texture filtering), each as its two finest mipmap
+levels; the rest follows when a camera turns towards it. A medium-benchmark cheetah view
+sends ~6% of the texels of a six-face upload and renders the same pixels (compared
+exactly in ``tests/test_render.py``); see :meth:`_Context.upload_cube` and
+:mod:`dcs_torchrl._skybox`.
 """
 from __future__ import annotations
 
 import ctypes
+import math
 import weakref
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -32,7 +38,8 @@ from tensordict import TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import Transform
 
-from dcs_torchrl import presets
+from dcs_torchrl import _skybox, presets
+from dcs_torchrl._private_api import free_foreign_render_contexts
 from dcs_torchrl._scene import Scene, locate
 
 
@@ -62,24 +69,31 @@ def _shadow_size(profile: RenderProfile, side: int) -> int:
 class _Context:
     """The render context the suite made for one physics, shared by its RenderPixels."""
 
+    #: Reference path (tests, benchmarks): send all six faces of every new cube texture, as
+    #: the suite did before it sent only the faces a render samples. Same pixels, more work.
+    upload_all_faces: bool = False
+
     def __init__(self, physics, profile: str, width: int, height: int):
         self.physics = physics
         self.profile = profile
         self.width, self.height = width, height
         self.uploaded: dict[int, tuple[int, int]] = {}
+        self.pending: dict[int, _CubeContent] = {}  # cube textures whose GPU copy is partly stale
         self._make()
 
     def _make(self) -> None:
         physics, model = self.physics, self.physics.model
         settings = PROFILES[self.profile]
-        if getattr(physics, "_contexts", None):
-            physics._free_rendering_contexts()  # made by someone else, with other settings
+        free_foreign_render_contexts(physics)  # made by someone else, with other settings
         model.vis.global_.offwidth = self.width
         model.vis.global_.offheight = self.height
         model.vis.quality.offsamples = settings.msaa_samples
         model.vis.quality.shadowsize = _shadow_size(settings, max(self.width, self.height))
         physics.contexts  # creates the GL and MuJoCo contexts, uploads every texture
         self.uploaded = {i: (int(model.tex_width[i]), int(model.tex_height[i])) for i in range(model.ntex)}
+        self.skyboxes = {i for i in range(model.ntex) if model.tex_type[i] == mujoco.mjtTexture.mjTEXTURE_SKYBOX}
+        self.limited: set[int] = set()  # textures cut to _SKY_LEVELS mipmap levels in this context
+        self.pending = {}  # the new context was given model.tex_data, which holds every edit
 
     def fit(self, profile: str, width: int, height: int) -> None:
         """Makes the context serve one more RenderPixels (same profile, any size)."""
@@ -93,36 +107,135 @@ class _Context:
             self._make()
 
     def upload_cube(self, tex_id: int, faces: list[np.ndarray]) -> None:
-        """Uploads a cube/skybox texture whose data the caller wrote into ``model.tex_data``.
+        """Takes new content of a cube/skybox texture whose data the caller wrote into ``model.tex_data``.
 
         ``faces`` holds the six faces (or one face repeated on all six), each [s, s, 3]
-        uint8. A new texture size goes through ``mjr_uploadTexture`` (which allocates the
-        texture and its mipmaps); the same size again only replaces the pixels of the
-        two finest mipmap levels with ``glTexSubImage2D``, the texture being limited to
-        those two (``GL_TEXTURE_MAX_LEVEL``). At the sizes a sky is seen at, rendering is
-        the same as with the full chain (measured), and the upload ~3x cheaper than
-        regenerating mipmaps; RGBA source data is the fast path of Mesa's llvmpipe.
+        uint8. The texture keeps its two finest mipmap levels only (``GL_TEXTURE_MAX_LEVEL``,
+        set at its first new content in this context), which the suite writes itself: at
+        the sizes a sky is seen at, rendering is the same as with the full chain (measured),
+        and the upload ~3x cheaper than regenerating mipmaps. A new texture size goes
+        through ``mjr_uploadTexture`` at once (it allocates the texture, all six faces). The
+        same size again is only recorded: :meth:`upload_visible`, right before each render,
+        sends the part of the sky that render samples (``glTexSubImage2D`` from RGBA, the
+        fast path of Mesa's llvmpipe), and the rest when a later render needs it (a camera
+        that turns). A medium-benchmark cheetah view costs ~6% of the texels of six faces.
         """
-        model, contexts = self.physics.model, self.physics.contexts
+        model = self.physics.model
         size = (int(model.tex_width[tex_id]), int(model.tex_height[tex_id]))
-        texture = int(contexts.mujoco.ptr.texture[tex_id])
-        with contexts.gl.make_current() as ctx:
-            if self.uploaded.get(tex_id) != size:
-                ctx.call(mujoco.mjr_uploadTexture, model.ptr, contexts.mujoco.ptr, tex_id)
+        texture = int(self.physics.contexts.mujoco.ptr.texture[tex_id])
+        if self.uploaded.get(tex_id) != size:
+            with self.physics.contexts.gl.make_current() as ctx:
+                ctx.call(mujoco.mjr_uploadTexture, model.ptr, self.physics.contexts.mujoco.ptr, tex_id)
                 ctx.call(_limit_levels, texture, _SKY_LEVELS - 1)
-                self.uploaded[tex_id] = size
+            self.uploaded[tex_id] = size
+            self.limited.add(tex_id)
+            self.pending.pop(tex_id, None)
+            return
+        if tex_id not in self.limited:  # made by _make from model.tex_data with its whole mip chain,
+            # whose levels >= 2 would keep showing that first frame where a view samples them
+            with self.physics.contexts.gl.make_current() as ctx:
+                ctx.call(_limit_levels, texture, _SKY_LEVELS - 1)
+            self.limited.add(tex_id)
+        self.pending[tex_id] = _CubeContent(faces)
+
+    def upload_visible(self, camera_id: int, aspect: float) -> None:
+        """Sends the texels of pending cube textures that a render of ``camera_id`` samples and lack.
+
+        For the skybox that is, on each face its view frustum (``aspect`` = width / height)
+        meets, the rectangle around the part it sees, the frustum widened by a margin that
+        covers texture filtering (:mod:`dcs_torchrl._skybox`); other cube textures, the
+        free camera and :attr:`upload_all_faces` get whole faces. The pixels are those of
+        a whole upload (``tests/test_render.py`` compares them exactly).
+        """
+        if not self.pending:
+            return
+        jobs = []
+        for tex_id, content in list(self.pending.items()):
+            if self.upload_all_faces or tex_id not in self.skyboxes or camera_id < 0:
+                regions = _WHOLE_FACES
             else:
-                ctx.call(_sub_upload_cube, texture, [_rgba_levels(face) for face in faces])
+                fovy = float(self.physics.model.cam_fovy[camera_id])
+                view = (camera_id, aspect, fovy, self.physics.data.cam_xmat[camera_id].tobytes())
+                if view == content.last_view:
+                    continue  # what this view samples was sent (a still camera)
+                regions = _skybox.camera_regions(self.physics, camera_id, aspect, content.margin)
+                content.last_view = view
+            rects = content.take(regions)
+            if rects:
+                texture = int(self.physics.contexts.mujoco.ptr.texture[tex_id])
+                jobs.append((texture, [(face, rect[0], rect[1], content.levels(face, rect)) for face, rect in rects]))
+            if content.complete:
+                del self.pending[tex_id]
+        if jobs:
+            with self.physics.contexts.gl.make_current() as ctx:
+                ctx.call(_sub_upload_cubes, jobs)
 
 
 _SKY_LEVELS = 2  # mipmap levels kept for a skybox the suite rewrites (finest first)
+_PAD = 2  # texels added around a rectangle to send (the frustum's margin already covers filtering)
+_WHOLE_FACES = dict.fromkeys(range(6), _skybox.FULL)
 
 
-def _rgba_levels(face: np.ndarray) -> list[np.ndarray]:
-    levels = [cv2.cvtColor(face, cv2.COLOR_RGB2RGBA)]
-    while len(levels) < _SKY_LEVELS and levels[-1].shape[0] > 1:
-        side = max(1, levels[-1].shape[0] // 2)
-        levels.append(cv2.resize(levels[-1], (side, side), interpolation=cv2.INTER_AREA))
+class _CubeContent:
+    """New faces of a cube texture, and which texels of the six GPU faces show them already."""
+
+    def __init__(self, faces: list[np.ndarray]):
+        self.faces = faces
+        self.side = int(faces[0].shape[0])
+        self.margin = _skybox.face_margin(max(1, self.side >> (_SKY_LEVELS - 1)))
+        self.fresh: list[tuple[int, int, int, int] | None] = [None] * 6  # per GPU face, a rectangle sent
+        self.last_view = None
+        self._whole: dict[int, list[np.ndarray]] = {}
+
+    @property
+    def complete(self) -> bool:
+        return all(rect == (0, 0, self.side, self.side) for rect in self.fresh)
+
+    def take(self, regions: dict) -> list[tuple[int, tuple[int, int, int, int]]]:
+        """The texel rectangles to send so that every region is fresh, now counted as sent.
+
+        A region (texture coordinates) becomes level-0 texels padded by :data:`_PAD` and
+        aligned to even texels, so that it maps exactly onto level 1 (whole faces when the
+        side is odd). A face sent in part that needs more is sent whole: so a still sky
+        under a turning camera costs each face at most one part and one whole.
+        """
+        n = self.side
+        out = []
+        for face, (s0, t0, s1, t1) in regions.items():
+            if n % 2:
+                rect = (0, 0, n, n)
+            else:
+                rect = (
+                    max(0, (math.floor(s0 * n) - _PAD) & ~1), max(0, (math.floor(t0 * n) - _PAD) & ~1),
+                    min(n, (math.ceil(s1 * n) + _PAD + 1) & ~1), min(n, (math.ceil(t1 * n) + _PAD + 1) & ~1),
+                )
+            old = self.fresh[face]
+            if old is not None:
+                if old[0] <= rect[0] and old[1] <= rect[1] and old[2] >= rect[2] and old[3] >= rect[3]:
+                    continue
+                rect = (0, 0, n, n)  # a view that moves on within a face will want the rest too
+            self.fresh[face] = rect
+            out.append((face, rect))
+        return out
+
+    def levels(self, face: int, rect: tuple[int, int, int, int]) -> list[np.ndarray]:
+        """The RGBA mipmap levels of ``rect`` (level-0 texels) of ``face``, finest first."""
+        index = face if len(self.faces) == 6 else 0
+        x0, y0, x1, y1 = rect
+        if (x0, y0, x1, y1) == (0, 0, self.side, self.side):
+            if index not in self._whole:  # one face repeated on six is converted once
+                self._whole[index] = _rgba_levels(self.faces[index])
+            return self._whole[index]
+        return _rgba_levels(self.faces[index][y0:y1, x0:x1])
+
+
+def _rgba_levels(image: np.ndarray) -> list[np.ndarray]:
+    """RGBA copies of an [h, w, 3] image and its halvings (area averages), finest first."""
+    levels = [cv2.cvtColor(image, cv2.COLOR_RGB2RGBA)]
+    while len(levels) < _SKY_LEVELS and max(levels[-1].shape[:2]) > 1:
+        height, width = levels[-1].shape[:2]
+        half = (max(1, width // 2), max(1, height // 2))
+        levels.append(cv2.resize(levels[-1], half, interpolation=cv2.INTER_AREA))
     return levels
 
 
@@ -133,19 +246,20 @@ def _limit_levels(texture: int, max_level: int) -> None:
     GL.glTexParameteri(GL.GL_TEXTURE_CUBE_MAP, GL.GL_TEXTURE_MAX_LEVEL, max_level)
 
 
-def _sub_upload_cube(texture: int, levels_per_face: list[list[np.ndarray]]) -> None:
+def _sub_upload_cubes(jobs: list[tuple[int, list[tuple[int, int, int, list[np.ndarray]]]]]) -> None:
+    """Per ``(texture, [(face, x0, y0, levels)])``, replaces texels of cube faces from (x0, y0) on."""
     from OpenGL import GL
-    from OpenGL.raw.GL.VERSION import GL_1_1  # unchecked entry point: ~40% less call overhead
+    from OpenGL.raw.GL.VERSION import GL_1_1  # unchecked entry points: ~40% less call overhead
 
-    GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
-    for face in range(6):
-        levels = levels_per_face[face if len(levels_per_face) == 6 else 0]
-        for level, image in enumerate(levels):
-            side = image.shape[0]
-            GL_1_1.glTexSubImage2D(
-                GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, 0, 0, side, side,
-                GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, image.ctypes.data_as(ctypes.c_void_p),
-            )
+    for texture, uploads in jobs:
+        GL_1_1.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
+        for face, x0, y0, levels in uploads:
+            for level, image in enumerate(levels):
+                height, width = image.shape[:2]
+                GL_1_1.glTexSubImage2D(
+                    GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, x0 >> level, y0 >> level, width, height,
+                    GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, image.ctypes.data_as(ctypes.c_void_p),
+                )
 
 
 _CONTEXTS: "weakref.WeakKeyDictionary[object, _Context]" = weakref.WeakKeyDictionary()
@@ -232,7 +346,7 @@ class RenderPixels(Transform):
             scene = locate(self, strict=True)
             cid = self._resolved_camera(scene)
             for t in scene.before():
-                moved = getattr(t, "camera_id", None)
+                moved = None if isinstance(t, RenderPixels) else getattr(t, "camera_id", None)
                 if moved is not None and moved != cid:
                     raise ValueError(
                         f"{type(t).__name__} moves camera {moved} but RenderPixels renders camera {cid}: "
@@ -255,6 +369,8 @@ class RenderPixels(Transform):
             upload = getattr(t, "upload_textures", None)
             if upload is not None:
                 upload(context)
+        if context.pending:
+            context.upload_visible(self._resolved_camera(scene), self.width / self.height)
         camera = self.__dict__.get("_camera")
         if camera is None:
             camera = engine.Camera(scene.physics, self.height, self.width, self._resolved_camera(scene))

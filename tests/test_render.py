@@ -1,6 +1,7 @@
 """RenderPixels: one render per agent step, after every edit, faithful to dm_control's render."""
 import functools
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -9,8 +10,8 @@ from dm_control.mujoco import engine
 from torchrl.envs import Compose, DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl import CameraDistraction, ColorDistraction, RenderPixels, make_env
-from dcs_test_utils import PAPER_TASKS, physics_of
+from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels, make_env, render
+from dcs_test_utils import PAPER_TASKS, physics_of, solid_video
 
 
 def reference_render(physics, domain, task, size):
@@ -147,3 +148,92 @@ def test_profile_conflict_and_bad_arguments():
         RenderPixels(0, 84)
     with pytest.raises(RuntimeError, match="cannot transform stored data"):
         RenderPixels()(make_env("cartpole", "swingup").reset())
+
+
+# ----------------------------------------------------------------- the sky upload
+# The skybox is sent in part: the rectangles of the faces the camera sees (render.py,
+# _skybox.py). Tolerance: none, the pixels must equal those of a whole six-face upload.
+SKY_CASES = {
+    "medium camera": dict(camera=dict(scale=0.2), background=dict(dynamic=True)),
+    "camera at scale 1": dict(camera=dict(scale=1.0), background=dict(dynamic=True)),
+    "blind": dict(camera=dict(scale=0.2, blind=True), background=dict(dynamic=True)),
+    "still sky, turning camera": dict(camera=dict(scale=1.0), background=dict(dynamic=False)),
+    "six blended faces": dict(camera=dict(scale=1.0), background=dict(dynamic=True, blend=0.5)),
+}
+
+
+def noise_videos(count=2, frames=12, size=96):
+    """Textured clips (seeded noise), so that a stale or misplaced texel shows."""
+    rng = np.random.default_rng(0)
+    return [rng.integers(0, 256, (frames, size, size, 3), dtype=np.uint8) for _ in range(count)]
+
+
+def sky_pixels(monkeypatch, whole, transforms, episodes=3, steps=15, keys=("pixels",)):
+    """Images of a few seeded episodes, and the texels sent, with whole-face or partial sky uploads."""
+    sent = []
+    upload = render._sub_upload_cubes
+
+    def counted(jobs):
+        sent.append(sum(levels[0].shape[0] * levels[0].shape[1] for _, uploads in jobs for *_, levels in uploads))
+        upload(jobs)
+
+    monkeypatch.setattr(render, "_sub_upload_cubes", counted)
+    monkeypatch.setattr(render._Context, "upload_all_faces", whole)
+    env = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False, frame_skip=4), transforms())
+    env.set_seed(0)
+    torch.manual_seed(0)
+    frames = []
+    for _ in range(episodes):  # each reset brings a new sky, sent anew
+        td = env.rollout(steps, break_when_any_done=False)
+        frames += [torch.cat([td[key][:1], td["next", key]]) for key in keys]
+    env.close()
+    return torch.cat(frames), sum(sent)
+
+
+@pytest.mark.parametrize("case", sorted(SKY_CASES))
+def test_sending_the_seen_sky_renders_the_pixels_of_a_whole_upload(monkeypatch, case):
+    settings = SKY_CASES[case]
+    transforms = lambda: Compose(  # noqa: E731
+        CameraDistraction(dynamic=True, seed=3, **settings["camera"]),
+        BackgroundDistraction(noise_videos(), seed=3, **settings["background"]),
+        RenderPixels(),
+    )
+    whole, whole_texels = sky_pixels(monkeypatch, True, transforms)
+    seen, seen_texels = sky_pixels(monkeypatch, False, transforms)
+    assert torch.equal(seen, whole)
+    assert seen_texels < (0.25 if settings["background"]["dynamic"] else 1.0) * whole_texels
+
+
+def test_two_cameras_on_one_sky_each_get_the_faces_they_see(monkeypatch):
+    # cheetah's camera 0 looks along +y, camera 1 along +x: the second render needs a face the first did not
+    transforms = lambda: Compose(  # noqa: E731
+        BackgroundDistraction(noise_videos(), dynamic=True, seed=3),
+        RenderPixels(camera_id=0),
+        RenderPixels(camera_id=1, out_keys=["back"]),
+    )
+    keys = ("pixels", "back")
+    whole, whole_texels = sky_pixels(monkeypatch, True, transforms, episodes=2, steps=6, keys=keys)
+    seen, seen_texels = sky_pixels(monkeypatch, False, transforms, episodes=2, steps=6, keys=keys)
+    assert torch.equal(seen, whole)
+    assert seen_texels < 0.5 * whole_texels
+
+
+def test_the_sky_shows_only_the_current_frame_at_every_mip_level():
+    """The render context is made from the first frame with a whole mip chain; the sky then
+    keeps two levels, both rewritten, so no earlier clip shows where a view samples coarser
+    levels (it did, up to 191 grey levels, with a turning camera and solid-colour clips)."""
+    colours = [solid_video(rgb) for rgb in ((255, 0, 0), (0, 0, 255), (0, 255, 0))]
+    env = TransformedEnv(
+        DMControlEnv("cheetah", "run", from_pixels=False, frame_skip=4),
+        Compose(CameraDistraction(1.0, True, seed=2), BackgroundDistraction(colours, True, seed=2), RenderPixels()),
+    )
+    env.set_seed(2)
+    torch.manual_seed(2)
+    for _ in range(4):  # four episodes, each with a clip drawn anew
+        env.rollout(5, break_when_any_done=False)
+    physics, sky = physics_of(env), env.transform[1]._sky
+    shown = env.transform[-1]._render()
+    with physics.contexts.gl.make_current() as ctx:  # MuJoCo's own upload of the current sky
+        ctx.call(mujoco.mjr_uploadTexture, physics.model.ptr, physics.contexts.mujoco.ptr, sky)
+        ctx.call(render._limit_levels, int(physics.contexts.mujoco.ptr.texture[sky]), 1)
+    assert torch.equal(env.transform[-1]._render(), shown)

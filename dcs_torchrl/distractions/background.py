@@ -53,7 +53,8 @@ class BackgroundDistraction(DistractionTransform):
     (drawn at reset), reversing direction at the first and last frame, so the motion
     never cuts. The frame is written into the skybox texture (``model.tex_data``; one
     square face repeated on the six cube faces, as in the authors' code) and uploaded by
-    :class:`~dcs_torchrl.RenderPixels` right before it renders, once per agent step.
+    :class:`~dcs_torchrl.RenderPixels` right before it renders, once per agent step (only
+    the part of the sky the camera sees: the pixels are those of a whole upload).
 
     With ``blend`` β_bg < 1 each of the six faces shows β_bg · video + (1 - β_bg) · the
     original face, so β_bg = 0 is the original sky.
@@ -179,12 +180,17 @@ class BackgroundDistraction(DistractionTransform):
         model.tex_width[sky] = s
         model.tex_height[sky] = s * len(faces)
         adr = int(model.tex_adr[sky])
-        model.tex_data[adr : adr + s * s * 3 * len(faces)] = np.concatenate([f.reshape(-1) for f in faces])
+        for i, face in enumerate(faces):
+            model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
         self._pending = faces
         self._dirty = False
 
     def upload_textures(self, context) -> None:
-        """Called by RenderPixels right before it renders: uploads the new sky, if any."""
+        """Called by RenderPixels right before it renders: hands over the new sky, if any.
+
+        The render context then uploads the part of it the rendered camera sees (see
+        :meth:`dcs_torchrl.render._Context.upload_cube`), and the rest when a camera needs it.
+        """
         if self._pending is not None:
             context.upload_cube(self._sky, self._pending)
             self._pending = None

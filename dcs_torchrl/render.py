@@ -364,16 +364,17 @@ class RenderPixels(Transform):
 
     def _render(self) -> torch.Tensor:
         scene = self._bind()
+        camera_id = self._resolved_camera(scene)
         context = render_context(scene.physics, self.profile, self.width, self.height)
         for t in scene.before():
             upload = getattr(t, "upload_textures", None)
             if upload is not None:
                 upload(context)
         if context.pending:
-            context.upload_visible(self._resolved_camera(scene), self.width / self.height)
+            context.upload_visible(camera_id, self.width / self.height)
         camera = self.__dict__.get("_camera")
         if camera is None:
-            camera = engine.Camera(scene.physics, self.height, self.width, self._resolved_camera(scene))
+            camera = engine.Camera(scene.physics, self.height, self.width, camera_id)
             self.__dict__["_camera"] = camera
         return torch.from_numpy(np.ascontiguousarray(camera.render()))
 

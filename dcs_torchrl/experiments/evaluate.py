@@ -35,9 +35,7 @@ from omegaconf import DictConfig, OmegaConf
 from dcs_torchrl.experiments.grid import Evaluation
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.results import RunResults
-from dcs_torchrl.training.conf import register as _register_env_groups
-
-_register_env_groups()  # the env / eval_env groups of the configs
+from dcs_torchrl.training import conf as _conf  # noqa: F401  (importing it registers the env / eval_env groups)
 
 __all__ = ["SETTABLE", "evaluate_checkpoint", "evaluate_from_config", "main"]
 

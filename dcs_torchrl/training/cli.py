@@ -16,12 +16,10 @@ from omegaconf import DictConfig
 
 from dcs_torchrl.agents import retain_freed_memory
 from dcs_torchrl.methods import agent_class
-from dcs_torchrl.training.conf import register as _register_env_groups
+from dcs_torchrl.training import conf as _conf  # noqa: F401  (importing it registers the env / eval_env groups)
 from dcs_torchrl.training.loop import train
 
-_register_env_groups()  # the env / eval_env groups of the configs
-
-__all__ = ["CONFIG_PATH", "main", "train_from_config"]
+__all__ = ["CONFIG_PATH", "main", "recipe_main", "train_from_config"]
 
 #: The package's Hydra configs: one per algorithm (its ``algo`` settings) over ``base.yaml``.
 CONFIG_PATH = "pkg://dcs_torchrl.training.conf"
@@ -33,7 +31,10 @@ def train_from_config(cfg: DictConfig) -> dict:
     return train(cfg, agent_class(cfg.algo.name), HydraConfig.get().runtime.output_dir)
 
 
-@hydra.main(config_path=CONFIG_PATH, config_name="sac", version_base=None)
-def main(cfg: DictConfig) -> None:
-    """``python -m dcs_torchrl.training``: SAC by default, ``--config-name=qtopt`` for QT-Opt."""
-    train_from_config(cfg)
+def recipe_main(config_name: str):
+    """The Hydra entry point that trains with the package's ``<config_name>.yaml`` (``sac``, ``qtopt``)."""
+    return hydra.main(config_path=CONFIG_PATH, config_name=config_name, version_base=None)(train_from_config)
+
+
+#: ``python -m dcs_torchrl.training``: SAC by default, ``--config-name=qtopt`` for QT-Opt.
+main = recipe_main("sac")

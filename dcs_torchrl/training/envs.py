@@ -25,10 +25,7 @@ from torchrl.envs import CatFrames, Compose, EnvBase, ParallelEnv, PermuteTransf
 
 from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings, make_env, resolve_settings
 
-__all__ = ["ENV_KEYS", "close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings"]
-
-ENV_KEYS = ENV_OPTIONS  # what a recipe's ``env`` / ``eval_env`` group may set, besides ``env.domain`` / ``env.task``
-
+__all__ = ["close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings"]
 
 def env_options(section) -> dict:
     """The make_env settings of a recipe's ``env`` / ``eval_env`` config section (all its keys
@@ -69,7 +66,7 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     """One suite env with the recipes' pixel handling (``"pixels"``: uint8 ``[3*S, H, W]``)."""
     env = make_env(
         settings.domain, settings.task, seed=seed, height=image_size, width=image_size, render_profile=render_profile,
-        **{k: getattr(settings, k) for k in ENV_KEYS},
+        **{k: getattr(settings, k) for k in ENV_OPTIONS},
     )
     env.append_transform(
         Compose(

@@ -8,18 +8,9 @@ runs and where each choice comes from); everything around the update (envs, repl
 evaluation, checkpoints) is :func:`dcs_torchrl.training.train`. Settings:
 ``dcs_torchrl/training/conf/qtopt.yaml`` over ``base.yaml``. Every output goes to Hydra's run directory.
 """
-from __future__ import annotations
+from dcs_torchrl.training.cli import recipe_main
 
-import hydra
-from omegaconf import DictConfig
-
-from dcs_torchrl.training.cli import CONFIG_PATH, train_from_config
-
-
-@hydra.main(config_path=CONFIG_PATH, config_name="qtopt", version_base=None)
-def main(cfg: DictConfig) -> None:
-    train_from_config(cfg)
-
+main = recipe_main("qtopt")
 
 if __name__ == "__main__":
     main()

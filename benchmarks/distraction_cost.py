@@ -8,7 +8,9 @@ distraction switched on (the others at scale 0), stepped in interleaved rounds l
 whole sky" is the same env uploading all six sky faces whole at every new frame (what the suite
 did before it sent only the part of the sky the camera sees; same pixels). Then the two medium
 dynamic envs step ``--upload-steps`` more steps, interleaved in chunks, with the time spent in
-the sky upload (the render context's ``upload_cube`` + ``upload_visible``) measured around it.
+the suite's own work measured around it: the distractions' per-step edits, and the sky upload (the
+render context's ``upload_cube`` + ``upload_visible``). What remains of the difference is the
+render of another scene: a moved camera sees more or less of the (reflective) floor.
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from env_speed import interleaved_medians, time_steps  # noqa: E402  (benchmarks
 import dcs_torchrl as dcs  # noqa: E402
 from dcs_torchrl import render  # noqa: E402
 from dcs_torchrl._scene import locate  # noqa: E402
+from dcs_torchrl.distractions.base import DistractionTransform  # noqa: E402
 
 OFF = dict(camera_scale=0.0, color_scale=0.0, num_videos=0)
 WHOLE_SKY = "medium dynamic, whole sky"
@@ -47,36 +50,47 @@ def variants(domain: str, task: str) -> dict:
 
 def context_of(env) -> render._Context:
     """The render context of a suite env (after its first reset)."""
-    return render._CONTEXTS[locate(env.transform[-1], strict=True).physics]
+    renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
+    return render._CONTEXTS[locate(renderer, strict=True).physics]
 
 
-class UploadClock:
-    """Accumulates the wall time a render context spends in its sky upload."""
+class Clock:
+    """Accumulates the wall time spent in the given methods of some objects (patched on the instances)."""
 
-    def __init__(self, context):
+    def __init__(self, methods: list[tuple[object, str]]):
         self.seconds = 0.0
-        for name in ("upload_cube", "upload_visible"):
-            method = getattr(context, name)
+        for owner, name in methods:
+            method = getattr(owner, name)
 
             def timed(*args, _method=method):
                 start = time.perf_counter()
-                _method(*args)
+                result = _method(*args)
                 self.seconds += time.perf_counter() - start
+                return result
 
-            setattr(context, name, timed)
+            setattr(owner, name, timed)
 
 
-def upload_cost(envs: dict, steps: int, chunk: int = 50) -> dict:
-    """Median over chunks of the sky upload's seconds per step, envs stepped in interleaved chunks."""
-    clocks = {name: UploadClock(context_of(env)) for name, env in envs.items()}
+def suite_clocks(env) -> dict[str, Clock]:
+    """Clocks on the suite's own per-step work: the distractions' edits, the sky upload."""
+    context = context_of(env)
+    distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
+    return {"distractions": Clock([(t, "_step") for t in distractions]),
+            "upload": Clock([(context, "upload_cube"), (context, "upload_visible")])}
+
+
+def suite_cost(envs: dict, steps: int, chunk: int = 50) -> dict:
+    """Median over chunks of the seconds per step in each clock, envs stepped in interleaved chunks."""
+    clocks = {name: suite_clocks(env) for name, env in envs.items()}
     tds = {name: env.reset() for name, env in envs.items()}
-    per_step = {name: [] for name in envs}
+    per_step = {(name, part): [] for name in envs for part in clocks[name]}
     for _ in range(max(1, steps // chunk)):
         for name, env in envs.items():
-            before = clocks[name].seconds
+            before = {part: clock.seconds for part, clock in clocks[name].items()}
             _, tds[name] = time_steps(env, tds[name], chunk)
-            per_step[name].append((clocks[name].seconds - before) / chunk)
-    return {name: statistics.median(v) for name, v in per_step.items()}
+            for part, clock in clocks[name].items():
+                per_step[name, part].append((clock.seconds - before[part]) / chunk)
+    return {key: statistics.median(v) for key, v in per_step.items()}
 
 
 def main():
@@ -100,10 +114,16 @@ def main():
     print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step "
           f"(whole sky: {step[WHOLE_SKY] / step['none']:.3f})")
     if args.upload_steps > 0:
-        upload = upload_cost({name: envs[name] for name in ("medium dynamic", WHOLE_SKY)}, args.upload_steps)
-        print(f"sky upload per agent step, median of {args.upload_steps // 50} interleaved chunks of 50 steps: "
-              f"{1e3 * upload['medium dynamic']:.3f} ms (part seen) vs {1e3 * upload[WHOLE_SKY]:.3f} ms (whole sky), "
-              f"ratio {upload['medium dynamic'] / upload[WHOLE_SKY]:.2f}")
+        cost = suite_cost({name: envs[name] for name in ("medium dynamic", WHOLE_SKY)}, args.upload_steps)
+        own = cost["medium dynamic", "distractions"] + cost["medium dynamic", "upload"]
+        print(f"\nmedium dynamic, median of {args.upload_steps // 50} interleaved chunks of 50 steps, ms per agent step:")
+        print(f"  sky upload {1e3 * cost['medium dynamic', 'upload']:.3f} (part seen) vs "
+              f"{1e3 * cost[WHOLE_SKY, 'upload']:.3f} (whole sky), ratio "
+              f"{cost['medium dynamic', 'upload'] / cost[WHOLE_SKY, 'upload']:.2f}")
+        print(f"  distractions' edits {1e3 * cost['medium dynamic', 'distractions']:.3f}")
+        print(f"  the suite's own work {1e3 * own:.3f} = {100 * own / step['none']:.1f}% of an undistracted step; "
+              f"the rest of the difference is the render of a different scene (the moved view: medium static "
+              f"{100 * (step['medium static'] / step['none'] - 1):+.1f}%)")
     for env in envs.values():
         env.close()
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from dm_control import suite
-from torchrl.envs import Compose, DMControlEnv, TransformedEnv
+from torchrl.envs import Compose, DMControlEnv, ExcludeTransform, TransformedEnv
 
 from dcs_torchrl import presets
 from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
@@ -133,7 +133,7 @@ def make_env(
 
     Builds ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False,
     frame_skip=action_repeat), Compose(CameraDistraction, ColorDistraction,
-    BackgroundDistraction, RenderPixels))`` from a benchmark preset
+    BackgroundDistraction, RenderPixels, ExcludeTransform(<state keys>)))`` from a benchmark preset
     (:data:`dcs_torchrl.BENCHMARKS`) and the paper's action repeat
     (:data:`dcs_torchrl.TASKS`); every setting can be overridden.
 
@@ -159,7 +159,8 @@ def make_env(
         camera_id (int): the camera to distract and render; defaults to the suite's.
         height, width (int): image size. Defaults to 84x84.
         render_profile (str): ``"default"`` or ``"fast"`` (see :class:`RenderPixels`).
-        pixels_only (bool): drop the state observations.
+        pixels_only (bool): drop the state observations (TorchRL's ``ExcludeTransform``
+            after the render); ``False`` keeps them next to ``"pixels"``.
         texture_size (int): side of the background texture.
         device: TorchRL device of the env.
 
@@ -176,6 +177,8 @@ def make_env(
     given = locals()
     s = resolve_settings(domain, task, **{name: given[name] for name in ENV_OPTIONS})
     expose = bool(expose_distractions)
+    kwargs = {} if device is None else {"device": device}
+    base = DMControlEnv(domain, task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
     transforms = Compose(
         CameraDistraction(s.camera_scale, s.dynamic, camera_id=s.camera_id, blind=s.blind, expose=expose),
         ColorDistraction(s.color_scale, s.dynamic, expose=expose),
@@ -183,10 +186,11 @@ def make_env(
             s.background_dir, s.dynamic, num_videos=s.num_videos, blend=s.background_blend,
             ground_alpha=s.ground_alpha, split=s.background_split, texture_size=texture_size, expose=expose,
         ),
-        RenderPixels(height, width, s.camera_id, profile=render_profile, pixels_only=pixels_only),
+        RenderPixels(height, width, s.camera_id, profile=render_profile),
     )
-    kwargs = {} if device is None else {"device": device}
-    env = TransformedEnv(DMControlEnv(domain, task, from_pixels=False, frame_skip=s.action_repeat, **kwargs), transforms)
+    if pixels_only:
+        transforms.append(ExcludeTransform(*base.observation_spec.keys(True, True)))
+    env = TransformedEnv(base, transforms)
     if seed is not None:
         env.set_seed(seed)
     return env

@@ -294,8 +294,11 @@ class RenderPixels(Transform):
     Keyword Args:
         profile (str): ``"default"`` (matches dm_control's own render, mean absolute
             difference ≤ 0.1) or ``"fast"`` (≤ 1 grey level, about twice as fast).
-        pixels_only (bool): drop the state observations of the base env. Defaults to ``True``.
         out_keys (list of keys): where to write the image. Defaults to ``["pixels"]``.
+
+    The base env's state observations stay: append TorchRL's
+    ``ExcludeTransform(*base_env.observation_spec.keys())`` to drop them, as
+    :func:`~dcs_torchrl.make_env` does (``pixels_only=True``).
 
     Examples:
         >>> from torchrl.envs import DMControlEnv, TransformedEnv
@@ -312,9 +315,15 @@ class RenderPixels(Transform):
         camera_id: int | None = None,
         *,
         profile: str = "default",
-        pixels_only: bool = True,
         out_keys=None,
+        pixels_only=None,
     ):
+        if pixels_only is not None:
+            raise TypeError(
+                "RenderPixels no longer drops the state observations: append "
+                "torchrl.envs.ExcludeTransform(*base_env.observation_spec.keys()) after it "
+                "(make_env(..., pixels_only=True) does)."
+            )
         if int(height) < 1 or int(width) < 1:
             raise ValueError(f"RenderPixels needs a positive image size, got height={height}, width={width}.")
         if profile not in PROFILES:
@@ -323,7 +332,6 @@ class RenderPixels(Transform):
         self.height, self.width = int(height), int(width)
         self.camera_id = camera_id
         self.profile = profile
-        self.pixels_only = bool(pixels_only)
         self._forget()
 
     # ----------------------------------------------------------------- wiring
@@ -337,7 +345,7 @@ class RenderPixels(Transform):
         self._forget()
 
     def _forget(self) -> None:
-        for name in ("_scene", "_camera", "_state_keys_cache"):
+        for name in ("_scene", "_camera"):
             self.__dict__[name] = None
 
     def _bind(self) -> Scene:
@@ -378,33 +386,17 @@ class RenderPixels(Transform):
             self.__dict__["_camera"] = camera
         return torch.from_numpy(np.ascontiguousarray(camera.render()))
 
-    def _state_keys(self) -> list:
-        keys = self.__dict__.get("_state_keys_cache")
-        if keys is None:
-            keys = self.__dict__["_state_keys_cache"] = list(self._bind().base_env.observation_spec.keys(True, True))
-        return keys
-
-    def _drop_states(self, tensordict: TensorDictBase) -> TensorDictBase:
-        return tensordict.exclude(*self._state_keys()) if self.pixels_only else tensordict
-
     # ---------------------------------------------------------- TorchRL hooks
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
-        tensordict_reset = self._drop_states(tensordict_reset)
         return tensordict_reset.set(self.out_keys[0], self._render())
 
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
-        next_tensordict = self._drop_states(next_tensordict)
         return next_tensordict.set(self.out_keys[0], self._render())
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         raise RuntimeError("RenderPixels renders a live MuJoCo scene; it cannot transform stored data.")
 
     def transform_observation_spec(self, observation_spec: Composite) -> Composite:
-        if self.pixels_only:
-            present = set(observation_spec.keys(True, True))
-            for key in self._state_keys():
-                if key in present:
-                    del observation_spec[key]
         observation_spec[self.out_keys[0]] = Bounded(
             low=0, high=255, shape=(self.height, self.width, 3), dtype=torch.uint8, device=observation_spec.device
         )
@@ -413,5 +405,5 @@ class RenderPixels(Transform):
     def __repr__(self) -> str:
         return (
             f"{type(self).__name__}(height={self.height}, width={self.width}, camera_id={self.camera_id}, "
-            f"profile={self.profile!r}, pixels_only={self.pixels_only})"
+            f"profile={self.profile!r})"
         )

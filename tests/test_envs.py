@@ -13,7 +13,7 @@ from dcs_test_utils import PAPER_TASKS, physics_of
 
 
 def distractions(env):
-    camera, color, background, render = env.transform
+    camera, color, background, render, _exclude_states = env.transform
     return camera, color, background, render
 
 

@@ -7,7 +7,7 @@ import pytest
 import torch
 from dm_control import suite
 from dm_control.mujoco import engine
-from torchrl.envs import Compose, DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
+from torchrl.envs import Compose, DMControlEnv, ExcludeTransform, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
 from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels, make_env, render
@@ -77,13 +77,22 @@ def test_render_comes_after_the_edits_of_the_same_step():
 
 
 def test_pixels_only():
-    states = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels(pixels_only=False))
-    only = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels())
-    assert set(states.observation_spec.keys()) == {"position", "velocity", "pixels"}
+    # RenderPixels adds the image; make_env drops the states with TorchRL's ExcludeTransform
+    states = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels())
+    only = make_env("cheetah", "run")
+    kept = make_env("cheetah", "run", pixels_only=False)
+    assert set(states.observation_spec.keys()) == set(kept.observation_spec.keys()) == {"position", "velocity", "pixels"}
     assert set(only.observation_spec.keys()) == {"pixels"}
+    assert isinstance(only.transform[-1], ExcludeTransform)
     assert set(states.reset().keys()) >= {"position", "velocity", "pixels"}
-    check_env_specs(states)
-    check_env_specs(only)
+    assert not {"position", "velocity"} & set(only.rollout(2).keys(True, True))
+    for env in (states, only, kept):
+        check_env_specs(env)
+
+
+def test_pixels_only_is_no_longer_a_render_setting():
+    with pytest.raises(TypeError, match="ExcludeTransform"):
+        RenderPixels(pixels_only=True)
 
 
 def test_size_and_camera():

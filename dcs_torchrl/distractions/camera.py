@@ -110,12 +110,13 @@ class CameraDistraction(DistractionTransform):
             return data.xpos[body]
         return np.zeros(3)
 
-    def _focus(self, data) -> np.ndarray:
+    def _focus(self, data) -> tuple[float, float, float]:
         """The point the task's camera looks at: on its view ray, at its distance to the agent."""
         cid = self.camera_id
-        position = data.cam_xpos[cid]
-        distance = np.linalg.norm(position - data.subtree_com[1])
-        return position - distance * data.cam_xmat[cid].reshape(3, 3)[:, 2]
+        position = data.cam_xpos[cid].tolist()
+        distance = math.dist(position, data.subtree_com[1].tolist())
+        xmat = data.cam_xmat[cid].tolist()  # row-major: the camera's z axis is (xmat[2], xmat[5], xmat[8])
+        return tuple(p - distance * axis for p, axis in zip(position, xmat[2::3]))
 
     # --------------------------------------------------------------- contract
     def _start(self, physics) -> None:
@@ -124,7 +125,7 @@ class CameraDistraction(DistractionTransform):
         offset = data.cam_xpos[self.camera_id] - self._origin(data)
         radius0, azimuth0, elevation0 = cm.cart_to_sphere(*offset)
         self._turn = cm.frame_turn(azimuth0)
-        self._to_world = cm.rotation_z(self._turn)
+        self._turn_cos_sin = (math.cos(self._turn), math.sin(self._turn))
         azimuth0 -= self._turn
         upper = self.upper_quadrant
         if upper is None:
@@ -147,14 +148,15 @@ class CameraDistraction(DistractionTransform):
         if not self.active:
             return
         data, pose, cid = physics.data, self._pose, self.camera_id
-        offset = self._to_world @ np.array(cm.sphere_to_cart(pose.radius, pose.azimuth, pose.elevation))
-        position = self._origin(data) + offset
+        x, y, z = cm.sphere_to_cart(pose.radius, pose.azimuth, pose.elevation)
+        c, s = self._turn_cos_sin  # the frame's quarter turn about z, in floats: this runs every step
+        ox, oy, oz = self._origin(data).tolist()
+        position = (ox + c * x - s * y, oy + s * x + c * y, oz + z)
         focus = self._fixed_focus if self._fixed_focus is not None else self._focus(data)
         if self.blind:
-            focus = 2.0 * position - focus  # look the other way
-        rotation = self._look_at(focus, position) @ cm.rotation_z(pose.roll)
+            focus = tuple(2.0 * p - f for p, f in zip(position, focus))  # look the other way
         data.cam_xpos[cid] = position
-        data.cam_xmat[cid] = rotation.ravel()
+        data.cam_xmat[cid] = self._look_at(focus, position, pose.roll).ravel()
 
     def _state(self) -> np.ndarray:
         return self._pose.as_array(self._turn)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -49,21 +50,31 @@ def rotation_x(angle: float) -> np.ndarray:
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def look_at_upright(target: np.ndarray, position: np.ndarray) -> np.ndarray:
-    """Camera rotation (columns = camera axes in world) looking at ``target``, zero roll.
+def look_at_upright(target, position, roll: float = 0.0) -> np.ndarray:
+    """Camera rotation (columns = camera axes in world) looking at ``target``, then rolled by ``roll``.
 
-    The camera's x axis stays horizontal: the camera is yawed about the world z axis
-    and pitched about its own x axis. (Unstable right above or below the target, which
-    the frontal-quadrant limit keeps it away from.)
+    Before the roll the camera's x axis stays horizontal: the camera is yawed about the world
+    z axis and pitched about its own x axis (``rotation_z(-yaw) @ rotation_x(pitch) @
+    rotation_z(roll)``, written out: this runs at every agent step). Unstable right above or
+    below the target, which the frontal-quadrant limit keeps the camera away from.
     """
-    d = np.asarray(target, float) - np.asarray(position, float)
-    yaw = math.atan2(d[0], d[1])
-    pitch = math.atan2(d[2], math.hypot(d[0], d[1])) + HALF_PI  # camera starts looking at -z
-    return rotation_z(-yaw) @ rotation_x(pitch)
+    dx, dy, dz = (float(t) - float(p) for t, p in zip(target, position))
+    yaw = math.atan2(dx, dy)
+    pitch = math.atan2(dz, math.hypot(dx, dy)) + HALF_PI  # camera starts looking at -z
+    c, s = math.cos(yaw), -math.sin(yaw)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cr, sr = math.cos(roll), math.sin(roll)
+    # columns of rotation_z(-yaw) @ rotation_x(pitch): x = (c, s, 0), y = (-s cp, c cp, sp), z = (s sp, -c sp, cp)
+    yx, yy, yz = -s * cp, c * cp, sp
+    return np.array([
+        [c * cr + yx * sr, yx * cr - c * sr, s * sp],
+        [s * cr + yy * sr, yy * cr - s * sr, -c * sp],
+        [yz * sr, yz * cr, cp],
+    ])
 
 
-def look_at_shortest(target: np.ndarray, position: np.ndarray) -> np.ndarray:
-    """Camera rotation looking at ``target`` by the smallest rotation of a down-looking camera.
+def look_at_shortest(target: np.ndarray, position: np.ndarray, roll: float = 0.0) -> np.ndarray:
+    """Camera rotation looking at ``target`` by the smallest rotation of a down-looking camera, then rolled.
 
     Used for cameras above the scene (reacher): it stays smooth through the pole, at the
     price of some roll. Looking straight up turns the camera by π about its x axis.
@@ -75,10 +86,12 @@ def look_at_shortest(target: np.ndarray, position: np.ndarray) -> np.ndarray:
     sin_t = float(np.linalg.norm(axis))
     cos_t = float(d @ down)
     if sin_t < 1e-12:
-        return np.eye(3) if cos_t > 0 else np.diag([1.0, -1.0, -1.0])
-    axis /= sin_t
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    return np.eye(3) + sin_t * k + (1.0 - cos_t) * (k @ k)
+        turn = np.eye(3) if cos_t > 0 else np.diag([1.0, -1.0, -1.0])
+    else:
+        axis /= sin_t
+        k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+        turn = np.eye(3) + sin_t * k + (1.0 - cos_t) * (k @ k)
+    return turn @ rotation_z(roll) if roll else turn
 
 
 @dataclass(frozen=True)
@@ -127,9 +140,9 @@ def pose_range(
     )
 
 
-@dataclass(frozen=True)
-class Pose:
-    """Camera pose ``c = (azimuth, elevation, radius, roll)`` plus its velocities."""
+class Pose(NamedTuple):
+    """Camera pose ``c = (azimuth, elevation, radius, roll)`` plus its velocities (a tuple: one
+    is made per control step)."""
 
     radius: float
     azimuth: float
@@ -161,19 +174,21 @@ def _clip(x: float, bounds: tuple[float, float]) -> float:
     return min(max(x, bounds[0]), bounds[1])
 
 
-def walk(pose: Pose, r: PoseRange, noise: np.ndarray) -> Pose:
+def walk(pose: Pose, r: PoseRange, noise) -> Pose:
     """Advances the pose by one control step of the velocity random walk.
 
     ``noise`` holds 4 standard normals (x, y, z, roll). The velocity is perturbed,
     clipped to its maximum, added to the Cartesian position, the result clipped to the
     range in spherical coordinates, and the velocity re-derived from the clipped move
-    so it never keeps pushing out of range; likewise for roll.
+    so it never keeps pushing out of range; likewise for roll. (Plain floats throughout:
+    this runs ``frame_skip`` times per agent step.)
     """
+    n0, n1, n2, n3 = (float(x) for x in noise)
     vx, vy, vz = pose.velocity
-    vx += noise[0] * r.speed_std
-    vy += noise[1] * r.speed_std
-    vz += noise[2] * r.speed_std
-    roll_velocity = _clip(pose.roll_velocity + noise[3] * r.roll_speed_std, (-r.max_roll_speed, r.max_roll_speed))
+    vx += n0 * r.speed_std
+    vy += n1 * r.speed_std
+    vz += n2 * r.speed_std
+    roll_velocity = _clip(pose.roll_velocity + n3 * r.roll_speed_std, (-r.max_roll_speed, r.max_roll_speed))
     speed = math.sqrt(vx * vx + vy * vy + vz * vz)
     if speed > r.max_speed:
         shrink = r.max_speed / speed
@@ -188,6 +203,6 @@ def walk(pose: Pose, r: PoseRange, noise: np.ndarray) -> Pose:
 
 def walk_many(pose: Pose, r: PoseRange, rng: np.random.Generator, n_steps: int) -> Pose:
     """``n_steps`` control steps of :func:`walk`, drawing the noise in one call."""
-    for noise in rng.standard_normal((n_steps, 4)):
+    for noise in rng.standard_normal((n_steps, 4)).tolist():
         pose = walk(pose, r, noise)
     return pose

@@ -57,9 +57,11 @@ class ColorDistraction(DistractionTransform):
 
     def _advance(self, n_steps: int) -> None:
         if self.scale > 0 and self.dynamic:
-            rgb = self._rgb
-            for noise in self._rng.standard_normal((n_steps, *rgb.shape)):
-                rgb = np.clip(rgb + noise * (_WALK_STD * self.scale), self._low, self._high)
+            rgb = self._rgb.copy()  # the exposed state of the last step stays as it was
+            for step in self._rng.standard_normal((n_steps, *rgb.shape)) * (_WALK_STD * self.scale):
+                rgb += step  # then clipped: np.clip's dispatch costs more than these two
+                np.maximum(rgb, self._low, out=rgb)
+                np.minimum(rgb, self._high, out=rgb)
             self._rgb = rgb
 
     def _edit_scene(self, physics) -> None:

@@ -22,21 +22,20 @@ from matplotlib.patches import Patch
 
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS
 from dcs_torchrl.report.markdown import fmt_value
+from dcs_torchrl.methods import METHODS
 from dcs_torchrl.report.paper import MEAN_DOMAIN
 from dcs_torchrl.report.tables import setting_name
 
 __all__ = ["METHOD_COLORS", "curves_figure", "benchmark_figure"]
 
 # One colour per method, the same in every figure: the augmented methods as in the paper's
-# text (QT-Opt blue/green, SAC orange/pink), the plain ones in muted tones.
-METHOD_COLORS = MappingProxyType({
-    "SAC": "#8c564b",
-    "SAC+RAD": "#ff7f0e",
-    "SAC+DrQ": "#e377c2",
-    "QT-Opt": "#7f7f7f",
-    "QT-Opt+RAD": "#1f77b4",
-    "QT-Opt+DrQ": "#2ca02c",
-})
+# text (QT-Opt blue/green, SAC orange/pink), the plain ones in muted tones. Keyed by the
+# registry's (algorithm, augmentation): the method names live in dcs_torchrl.methods only.
+_PALETTE = {
+    ("sac", "none"): "#8c564b", ("sac", "rad"): "#ff7f0e", ("sac", "drq"): "#e377c2",
+    ("qtopt", "none"): "#7f7f7f", ("qtopt", "rad"): "#1f77b4", ("qtopt", "drq"): "#2ca02c",
+}
+METHOD_COLORS = MappingProxyType({m.name: _PALETTE[m.algo, m.aug] for m in METHODS.values()})
 LINESTYLES = MappingProxyType({False: "-", True: "--"})
 YLABEL = "mean episode return over tasks"
 

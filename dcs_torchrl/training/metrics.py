@@ -4,8 +4,11 @@ Rows are ``frames,name,value,wall_time`` (long format: one row per scalar, names
 ``train/``, ``eval/``, ``loss/``, ``time/``), appended and flushed as they are logged. A
 checkpoint records :attr:`MetricsLogger.rows`; on resume, :meth:`MetricsLogger.truncate` drops
 the rows logged after it (the run repeats that stretch), so a killed and resumed run has every
-row once. TensorBoard drops its events after the checkpoint's frames (``purge_step``); W&B runs
-resume under the same id.
+row once. TensorBoard drops its events after the checkpoint's frames (``purge_step``; TorchRL's
+``TensorboardLogger`` cannot, so this one is torch's ``SummaryWriter``). W&B goes through
+TorchRL's ``WandbLogger``: every metric is plotted against the frames (its group's ``step``), and
+a resumed run continues the same W&B run (its id is kept in the checkpoints), where the repeated
+stretch shows twice.
 """
 from __future__ import annotations
 
@@ -88,11 +91,16 @@ class MetricsLogger:
             self._tb = SummaryWriter(str(Path(run_dir) / "tensorboard"), purge_step=None if resume is None else resume[1])
         elif backend == "wandb":
             try:
-                import wandb
+                import wandb  # noqa: F401
             except ImportError as err:
                 raise ImportError("logger.backend=wandb needs `pip install dcs-torchrl[wandb]`.") from err
-            self._wandb = wandb.init(project=project, name=run_name, id=wandb_id, resume="allow", config=config, dir=str(run_dir))
-            self.wandb_id = self._wandb.id
+            from torchrl.record.loggers import WandbLogger
+
+            # TorchRL's logger: each metric gets the step axis of its group ("train/step" for
+            # "train/return", ...), here the frames; wandb_id (saved in the checkpoints) resumes the run
+            self._wandb = WandbLogger(run_name or Path(run_dir).name, save_dir=str(run_dir), id=wandb_id,
+                                      project=project, config=config, log_env_packages=False)
+            self.wandb_id = self._wandb.experiment.id
 
     def truncate(self, rows: int) -> None:
         """Keeps only the first ``rows`` rows (rewritten atomically)."""
@@ -115,11 +123,11 @@ class MetricsLogger:
                 self._tb.add_scalar(name, float(value), frames)
         self._file.flush()
         if self._wandb is not None:
-            self._wandb.log({**{k: float(v) for k, v in metrics.items()}, "frames": frames}, step=frames)
+            self._wandb.log_metrics({k: float(v) for k, v in metrics.items()}, step=frames)
 
     def close(self) -> None:
         self._file.close()
         if self._tb is not None:
             self._tb.close()
         if self._wandb is not None:
-            self._wandb.finish()
+            self._wandb.close()

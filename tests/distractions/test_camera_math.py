@@ -115,6 +115,13 @@ def test_look_at_is_a_rotation_facing_the_target(look_at, rng):
         assert _looks_at(rotation, target, position)
 
 
+@pytest.mark.parametrize("look_at", [cm.look_at_upright, cm.look_at_shortest])
+def test_roll_turns_the_camera_about_its_view_axis(look_at, rng):
+    for _ in range(100):
+        target, position, roll = rng.normal(size=3), rng.normal(size=3) * 3, rng.uniform(-1.6, 1.6)
+        assert np.allclose(look_at(target, position, roll), look_at(target, position) @ cm.rotation_z(roll), atol=1e-12)
+
+
 def test_upright_look_at_has_no_roll(rng):
     for _ in range(100):
         rotation = cm.look_at_upright(rng.normal(size=3), rng.normal(size=3) * 3)

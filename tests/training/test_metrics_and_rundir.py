@@ -55,3 +55,23 @@ def test_run_directory_identity(tmp_path):
     run.write_results({"steps": 100, "eval": {"mean": 1.0}})
     assert run.finished(100)["steps"] == 100 and run.finished(200) is None
     assert json.loads((tmp_path / "results.json").read_text())["steps"] == 100
+
+
+def test_wandb_backend_is_torchrls_logger_and_resumes_the_same_run(tmp_path, monkeypatch):
+    pytest.importorskip("wandb")
+    from torchrl.record.loggers import WandbLogger
+
+    monkeypatch.setenv("WANDB_MODE", "offline")  # a real wandb run, written to the run directory
+    monkeypatch.setenv("WANDB_SILENT", "true")
+    log = MetricsLogger(tmp_path, backend="wandb", project="dcs-test", run_name="r", config={"seed": 0})
+    assert isinstance(log._wandb, WandbLogger)
+    log.log(10, {"train/return": 1.0, "loss/critic": 2.0})
+    rows, run_id = log.rows, log.wandb_id
+    log.close()
+    resumed = MetricsLogger(tmp_path, backend="wandb", resume=(rows, 10), wandb_id=run_id, project="dcs-test")
+    assert resumed.wandb_id == run_id
+    resumed.log(20, {"train/return": 3.0})
+    resumed.close()
+    runs = sorted(p.name for p in (tmp_path / "wandb").glob("offline-run-*"))
+    assert len(runs) == 2 and all(name.split("-")[3] == run_id for name in runs)  # one W&B run, written twice
+    assert [r["value"] for r in read_metrics(tmp_path / "metrics.csv")] == [1.0, 2.0, 3.0]

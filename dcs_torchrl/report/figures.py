@@ -132,7 +132,8 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     ax.set_ylabel(YLABEL)
     ax.set_ylim(bottom=0)
     ax.grid(axis="y", alpha=0.3)
-    ax.set_title(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""))
+    # over the whole figure, legend included: a long note would be cut off over the axes alone
+    fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""), fontsize=12)
     markers = [
         Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)"),
         Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label="paper: expected"),

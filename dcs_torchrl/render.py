@@ -120,23 +120,22 @@ class _Context:
         fast path of Mesa's llvmpipe), and the rest when a later render needs it (a camera
         that turns). A medium-benchmark cheetah view costs ~6% of the texels of six faces.
         """
-        model = self.physics.model
+        model, contexts = self.physics.model, self.physics.contexts
         size = (int(model.tex_width[tex_id]), int(model.tex_height[tex_id]))
-        texture = int(self.physics.contexts.mujoco.ptr.texture[tex_id])
-        if self.uploaded.get(tex_id) != size:
-            with self.physics.contexts.gl.make_current() as ctx:
-                ctx.call(mujoco.mjr_uploadTexture, model.ptr, self.physics.contexts.mujoco.ptr, tex_id)
-                ctx.call(_limit_levels, texture, _SKY_LEVELS - 1)
+        resized = self.uploaded.get(tex_id) != size
+        # a texture made by _make from model.tex_data has its whole mip chain, whose levels >= 2
+        # would keep showing that first frame where a view samples them: cut it at first use
+        if resized or tex_id not in self.limited:
+            with contexts.gl.make_current() as ctx:
+                if resized:
+                    ctx.call(mujoco.mjr_uploadTexture, model.ptr, contexts.mujoco.ptr, tex_id)
+                ctx.call(_limit_levels, int(contexts.mujoco.ptr.texture[tex_id]), _SKY_LEVELS - 1)
+            self.limited.add(tex_id)
+        if resized:
             self.uploaded[tex_id] = size
-            self.limited.add(tex_id)
             self.pending.pop(tex_id, None)
-            return
-        if tex_id not in self.limited:  # made by _make from model.tex_data with its whole mip chain,
-            # whose levels >= 2 would keep showing that first frame where a view samples them
-            with self.physics.contexts.gl.make_current() as ctx:
-                ctx.call(_limit_levels, texture, _SKY_LEVELS - 1)
-            self.limited.add(tex_id)
-        self.pending[tex_id] = _CubeContent(faces)
+        else:
+            self.pending[tex_id] = _CubeContent(faces)
 
     def upload_visible(self, camera_id: int, aspect: float) -> None:
         """Sends the texels of pending cube textures that a render of ``camera_id`` samples and lack.

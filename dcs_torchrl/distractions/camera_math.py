@@ -91,7 +91,7 @@ def look_at_shortest(target: np.ndarray, position: np.ndarray, roll: float = 0.0
         axis /= sin_t
         k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
         turn = np.eye(3) + sin_t * k + (1.0 - cos_t) * (k @ k)
-    return turn @ rotation_z(roll) if roll else turn
+    return turn @ rotation_z(roll)
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from matplotlib.patches import Patch
 
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS
 from dcs_torchrl.report.markdown import fmt_value
-from dcs_torchrl.methods import METHODS
+from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.paper import MEAN_DOMAIN
 from dcs_torchrl.report.tables import setting_name
 
@@ -35,7 +35,7 @@ _PALETTE = {
     ("sac", "none"): "#8c564b", ("sac", "rad"): "#ff7f0e", ("sac", "drq"): "#e377c2",
     ("qtopt", "none"): "#7f7f7f", ("qtopt", "rad"): "#1f77b4", ("qtopt", "drq"): "#2ca02c",
 }
-METHOD_COLORS = MappingProxyType({m.name: _PALETTE[m.algo, m.aug] for m in METHODS.values()})
+METHOD_COLORS = MappingProxyType({m.name: _PALETTE[m.algo, m.aug] for m in REGISTRY.values()})
 LINESTYLES = MappingProxyType({False: "-", True: "--"})
 YLABEL = "mean episode return over tasks"
 

@@ -9,8 +9,11 @@ whole sky" is the same env uploading all six sky faces whole at every new frame 
 did before it sent only the part of the sky the camera sees; same pixels). Then the two medium
 dynamic envs step ``--upload-steps`` more steps, interleaved in chunks, with the time spent in
 the suite's own work measured around it: the distractions' per-step edits, and the sky upload (the
-render context's ``upload_cube`` + ``upload_visible``). What remains of the difference is the
-render of another scene: a moved camera sees more or less of the (reflective) floor.
+render context's ``upload_cube`` + ``upload_visible``); the undistracted and the medium static env
+step with them, and in every env the render itself is clocked too (dm_control's
+``Camera.render``: scene update, ``mjr_render``, ``mjr_readPixels``), so that the difference to
+the undistracted step splits into the suite's work and the render of another scene (a moved
+camera sees more or less of the reflective floor).
 """
 from __future__ import annotations
 
@@ -72,22 +75,25 @@ class Clock:
 
 
 def suite_clocks(env) -> dict[str, Clock]:
-    """Clocks on the suite's own per-step work: the distractions' edits, the sky upload."""
+    """Clocks on the suite's own per-step work (the distractions' edits, the sky upload) and on the render."""
     context = context_of(env)
     distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
+    renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
     return {"distractions": Clock([(t, "_step") for t in distractions]),
-            "upload": Clock([(context, "upload_cube"), (context, "upload_visible")])}
+            "upload": Clock([(context, "upload_cube"), (context, "upload_visible")]),
+            "render": Clock([(renderer.__dict__["_camera"], "render")])}
 
 
 def suite_cost(envs: dict, steps: int, chunk: int = 50) -> dict:
     """Median over chunks of the seconds per step in each clock, envs stepped in interleaved chunks."""
     clocks = {name: suite_clocks(env) for name, env in envs.items()}
     tds = {name: env.reset() for name, env in envs.items()}
-    per_step = {(name, part): [] for name in envs for part in clocks[name]}
+    per_step = {(name, part): [] for name in envs for part in ["step", *clocks[name]]}
     for _ in range(max(1, steps // chunk)):
         for name, env in envs.items():
             before = {part: clock.seconds for part, clock in clocks[name].items()}
-            _, tds[name] = time_steps(env, tds[name], chunk)
+            seconds, tds[name] = time_steps(env, tds[name], chunk)
+            per_step[name, "step"].append(seconds / chunk)
             for part, clock in clocks[name].items():
                 per_step[name, part].append((clock.seconds - before[part]) / chunk)
     return {key: statistics.median(v) for key, v in per_step.items()}
@@ -114,16 +120,25 @@ def main():
     print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step "
           f"(whole sky: {step[WHOLE_SKY] / step['none']:.3f})")
     if args.upload_steps > 0:
-        cost = suite_cost({name: envs[name] for name in ("medium dynamic", WHOLE_SKY)}, args.upload_steps)
-        own = cost["medium dynamic", "distractions"] + cost["medium dynamic", "upload"]
-        print(f"\nmedium dynamic, median of {args.upload_steps // 50} interleaved chunks of 50 steps, ms per agent step:")
-        print(f"  sky upload {1e3 * cost['medium dynamic', 'upload']:.3f} (part seen) vs "
-              f"{1e3 * cost[WHOLE_SKY, 'upload']:.3f} (whole sky), ratio "
-              f"{cost['medium dynamic', 'upload'] / cost[WHOLE_SKY, 'upload']:.2f}")
-        print(f"  distractions' edits {1e3 * cost['medium dynamic', 'distractions']:.3f}")
-        print(f"  the suite's own work {1e3 * own:.3f} = {100 * own / step['none']:.1f}% of an undistracted step; "
-              f"the rest of the difference is the render of a different scene (the moved view: medium static "
-              f"{100 * (step['medium static'] / step['none'] - 1):+.1f}%)")
+        split = ("none", "medium static", "medium dynamic", WHOLE_SKY)
+        cost = suite_cost({name: envs[name] for name in split}, args.upload_steps)
+        print(f"\nmedian of {args.upload_steps // 50} interleaved chunks of 50 steps, ms per agent step "
+              "(the suite's work and the render, and each's difference to the undistracted env's):")
+        print("| env | step, vs none | distractions' edits | sky upload | suite's work, vs none | render, vs none |")
+        print("|---|---:|---:|---:|---:|---:|")
+        ms = lambda name, part: 1e3 * cost[name, part]
+        own = {name: ms(name, "distractions") + ms(name, "upload") for name in split}
+        for name in split:
+            print(f"| {name} | {ms(name, 'step'):.2f}, {ms(name, 'step') - ms('none', 'step'):+.3f} | "
+                  f"{ms(name, 'distractions'):.3f} | {ms(name, 'upload'):.3f} | "
+                  f"{own[name]:.3f}, {own[name] - own['none']:+.3f} | "
+                  f"{ms(name, 'render'):.2f}, {ms(name, 'render') - ms('none', 'render'):+.3f} |")
+        extra = 1e3 * (step["medium dynamic"] - step["none"])
+        print(f"\nmedium dynamic over none: {extra:+.3f} ms per step (timed above); the suite's work "
+              f"{own['medium dynamic'] - own['none']:+.3f} ms = "
+              f"{100 * (own['medium dynamic'] - own['none']) / (1e3 * step['none']):.1f}% of an undistracted step, "
+              f"the render {ms('medium dynamic', 'render') - ms('none', 'render'):+.3f} ms; sky upload "
+              f"{cost['medium dynamic', 'upload'] / cost[WHOLE_SKY, 'upload']:.2f}x the whole sky's")
     for env in envs.values():
         env.close()
 

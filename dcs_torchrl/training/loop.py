@@ -62,6 +62,18 @@ class Agent(Protocol):
 AgentBuilder = Callable[[DictConfig, tuple, object, int], Agent]
 
 
+def _scene_label(s) -> str:
+    """What the agent was trained on, for a plot's title: ``"easy, dynamic"``, ``"camera 0.3, static"``."""
+    parts = [f"camera {s.camera_scale:g}"] if s.camera_scale > 0 else []
+    parts += [f"colour {s.color_scale:g}"] if s.color_scale > 0 else []
+    parts += [f"{s.num_videos} videos"] if s.num_videos > 0 else []
+    parts += ["blind"] if s.blind else []
+    if not parts:
+        return "no distractions"
+    what = s.benchmark if s.benchmark not in (None, "none") else ", ".join(parts)
+    return f"{what}, {'dynamic' if s.dynamic else 'static'}"
+
+
 def _set_rng_state(state: dict) -> None:
     """Restores a checkpoint's global RNG state (TorchRL's ``GlobalRNGState``, CUDA's included;
     checkpoints written before it hold ``torch`` / ``numpy`` / ``python`` only)."""
@@ -311,7 +323,7 @@ class Workspace:
             _record_episode(self.eval_env, self.eval_policy, self.run.path / "eval_episode.mp4", max_steps=-(-1000 // self.repeat))
         self.logger.close()
         plot_learning_curve(read_metrics(self.logger.path), self.run.path / "learning_curve.png",
-                            title=f"{self.method} {cfg.env.domain} {cfg.env.task} ({cfg.env.benchmark}, seed {cfg.seed})")
+                            title=f"{self.method} {cfg.env.domain} {cfg.env.task} ({_scene_label(self.train_settings)}, seed {cfg.seed})")
         return RunResults.from_config(
             self.run.config, experiment=cfg.experiment, steps=frames, wall_time=time.time() - self.start_time,
             train_env=self.train_settings.as_dict(), eval_env=self.eval_settings.as_dict(),

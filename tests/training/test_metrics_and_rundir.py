@@ -1,4 +1,4 @@
-"""metrics.csv rows survive resumes exactly once; run directories refuse other configs."""
+"""metrics.csv rows survive resumes exactly once; run directories refuse other configs; the learning curve names its training scene."""
 from __future__ import annotations
 
 import json
@@ -75,3 +75,20 @@ def test_wandb_backend_is_torchrls_logger_and_resumes_the_same_run(tmp_path, mon
     runs = sorted(p.name for p in (tmp_path / "wandb").glob("offline-run-*"))
     assert len(runs) == 2 and all(name.split("-")[3] == run_id for name in runs)  # one W&B run, written twice
     assert [r["value"] for r in read_metrics(tmp_path / "metrics.csv")] == [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize(
+    "options, label",
+    [
+        ({}, "no distractions"),
+        ({"benchmark": "easy", "dynamic": True}, "easy, dynamic"),
+        ({"benchmark": "medium"}, "medium, static"),
+        ({"camera_scale": 0.3}, "camera 0.3, static"),
+        ({"color_scale": 0.2, "num_videos": 4, "dynamic": True}, "colour 0.2, 4 videos, dynamic"),
+    ],
+)
+def test_learning_curve_title_names_the_training_scene(options, label):
+    from dcs_torchrl.envs import resolve_settings
+    from dcs_torchrl.training.loop import _scene_label
+
+    assert _scene_label(resolve_settings("cartpole", "swingup", **options)) == label

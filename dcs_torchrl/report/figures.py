@@ -116,8 +116,10 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
         x = np.arange(len(benchmarks)) + (i - (len(METHODS) - 1) / 2) * width
         have = m["mean"].notna().to_numpy()
         any_missing |= not have.all()
-        ax.bar(x[have], m["mean"].to_numpy(float)[have], width, yerr=np.nan_to_num(m["stderr"].to_numpy(float)[have]),
-               color=METHOD_COLORS[method], capsize=2, error_kw={"lw": 0.8})
+        mean, stderr = m["mean"].to_numpy(float), m["stderr"].to_numpy(float)
+        ax.bar(x[have], mean[have], width, color=METHOD_COLORS[method])
+        spread = have & np.isfinite(stderr)  # one seed has no standard error: no bar rather than a zero one
+        ax.errorbar(x[spread], mean[spread], yerr=stderr[spread], fmt="none", ecolor="k", capsize=2, lw=0.8)
         ax.scatter(x[~have], np.zeros((~have).sum()), marker="x", s=18, color="0.55", lw=1, zorder=3, clip_on=False)
         ax.scatter(x, m["paper_mean"], marker="D", s=28, facecolors="none", edgecolors="k", lw=1, zorder=3)
         rows = inter[inter.method == method].set_index("difficulty")

@@ -70,7 +70,7 @@ def _scene_label(s) -> str:
     parts += ["blind"] if s.blind else []
     if not parts:
         return "no distractions"
-    what = s.benchmark if s.benchmark not in (None, "none") else ", ".join(parts)
+    what = s.benchmark if s.benchmark != "none" else ", ".join(parts)  # resolved settings: always a name
     return f"{what}, {'dynamic' if s.dynamic else 'static'}"
 
 

@@ -1,6 +1,6 @@
 """What each distraction of the medium dynamic benchmark adds to an agent step (default profile).
 
-    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5] [--upload-steps 500]
+    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5] [--upload-steps 500] [--texture-size 128]
 
 The medium dynamic env against the undistracted one, and against the same env with only one
 distraction switched on (the others at scale 0), stepped in interleaved rounds like
@@ -13,7 +13,9 @@ render context's ``upload_cube`` + ``upload_visible``); the undistracted and the
 step with them, and in every env the render itself is clocked too (dm_control's
 ``Camera.render``: scene update, ``mjr_render``, ``mjr_readPixels``), so that the difference to
 the undistracted step splits into the suite's work and the render of another scene (a moved
-camera sees more or less of the reflective floor).
+camera sees more or less of the reflective floor). ``--texture-size N`` adds the medium dynamic env
+with an N-texel sky (the suite's default is 256) to the timed rounds, and compares its pixels with the
+default's over a few seeded episodes: what a coarser sky would buy, and what it changes.
 """
 from __future__ import annotations
 
@@ -36,9 +38,16 @@ OFF = dict(camera_scale=0.0, color_scale=0.0, num_videos=0)
 WHOLE_SKY = "medium dynamic, whole sky"
 
 
-def variants(domain: str, task: str) -> dict:
+def coarse_sky(size: int) -> str:
+    return f"medium dynamic, {size}-texel sky"
+
+
+def variants(domain: str, task: str, texture_size: int | None = None) -> dict:
     medium = dict(benchmark="medium", seed=0)
     only = lambda key, dynamic: {**OFF, key: None, "dynamic": dynamic}  # None: the benchmark's value
+    coarse = {} if texture_size is None else {
+        coarse_sky(texture_size): lambda: dcs.make_env(domain, task, **medium, dynamic=True, texture_size=texture_size)
+    }
     return {
         "none": lambda: dcs.make_env(domain, task, seed=0),
         "camera only, dynamic": lambda: dcs.make_env(domain, task, **medium, **only("camera_scale", True)),
@@ -48,7 +57,25 @@ def variants(domain: str, task: str) -> dict:
         "medium static": lambda: dcs.make_env(domain, task, **medium, dynamic=False),
         "medium dynamic": lambda: dcs.make_env(domain, task, **medium, dynamic=True),
         WHOLE_SKY: lambda: dcs.make_env(domain, task, **medium, dynamic=True),
+        **coarse,
     }
+
+
+def pixel_difference(envs: list, seeds: range, steps: int) -> tuple[float, int]:
+    """Mean and max absolute difference (grey levels) between the pixels of two envs that differ only
+    in rendering, over ``steps`` zero-action steps after ``set_seed(s)`` and a reset, for each seed."""
+    action = torch.zeros(envs[0].action_spec.shape, dtype=envs[0].action_spec.dtype)
+    total, count, worst = 0.0, 0, 0
+    for seed in seeds:
+        for env in envs:
+            env.set_seed(seed)
+        tds = [env.reset() for env in envs]
+        for step in range(steps + 1):
+            diff = (tds[0]["pixels"].int() - tds[1]["pixels"].int()).abs()
+            total, count, worst = total + float(diff.sum()), count + diff.numel(), max(worst, int(diff.max()))
+            if step < steps:
+                tds = [env.step(td.set("action", action))["next"] for env, td in zip(envs, tds)]
+    return total / count, worst
 
 
 def context_of(env) -> render._Context:
@@ -106,9 +133,13 @@ def main():
     parser.add_argument("--steps", type=int, default=150)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--upload-steps", type=int, default=500)
+    parser.add_argument("--texture-size", type=int, default=None,
+                        help="also time the medium dynamic env with a sky of this many texels a side")
     args = parser.parse_args()
+    if args.texture_size is not None and args.texture_size < 1:
+        parser.error(f"--texture-size must be a positive number of texels, got {args.texture_size}")
     torch.set_num_threads(1)
-    envs = {name: make() for name, make in variants(args.domain, args.task).items()}
+    envs = {name: make() for name, make in variants(args.domain, args.task, args.texture_size).items()}
     envs[WHOLE_SKY].reset()
     context_of(envs[WHOLE_SKY]).upload_all_faces = True  # the reference path, this env only
     step, _ = interleaved_medians(envs, args.steps, args.rounds, resets=1)
@@ -119,8 +150,15 @@ def main():
         print(f"| {name} | {1e3 * step[name]:.2f} | {100 * (step[name] / step['none'] - 1):+.1f}% |")
     print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step "
           f"(whole sky: {step[WHOLE_SKY] / step['none']:.3f})")
+    if args.texture_size is not None:
+        coarse = coarse_sky(args.texture_size)
+        mean, worst = pixel_difference([envs["medium dynamic"], envs[coarse]], range(3), 100)
+        print(f"{coarse} / none: {step[coarse] / step['none']:.3f} per agent step; its pixels against the "
+              f"256-texel sky's over 3 seeded episodes of 100 steps: mean abs difference {mean:.2f}, max {worst} "
+              "grey levels")
     if args.upload_steps > 0:
         split = ("none", "medium static", "medium dynamic", WHOLE_SKY)
+        split += () if args.texture_size is None else (coarse_sky(args.texture_size),)
         cost = suite_cost({name: envs[name] for name in split}, args.upload_steps)
         print(f"\nmedian of {args.upload_steps // 50} interleaved chunks of 50 steps, ms per agent step "
               "(the suite's work and the render, and each's difference to the undistracted env's):")

@@ -124,6 +124,18 @@ class DrQEncoding:
         self.augmentation = augmentation
         self.num_augmentations = num_augmentations
 
+    def _loss_in_keys(self) -> list[NestedKey]:
+        """The keys the loss reads (action, next reward and done flags, encoder inputs and their next)."""
+        keys = [
+            self.tensor_keys.action,
+            ("next", self.tensor_keys.reward),
+            ("next", self.tensor_keys.done),
+            ("next", self.tensor_keys.terminated),
+            *self.encoder_network.in_keys,
+            *[("next", key) for key in self.encoder_network.in_keys],
+        ]
+        return list(dict.fromkeys(keys))
+
     @property
     def num_copies(self) -> int:
         """N = max(1, K): how many (possibly augmented) copies of each sample the loss uses."""

@@ -241,15 +241,7 @@ class QTOptLoss(DrQEncoding, LossModule):
 
     @property
     def in_keys(self):
-        keys = [
-            self.tensor_keys.action,
-            ("next", self.tensor_keys.reward),
-            ("next", self.tensor_keys.done),
-            ("next", self.tensor_keys.terminated),
-            *self.encoder_network.in_keys,
-            *[("next", key) for key in self.encoder_network.in_keys],
-        ]
-        return list(dict.fromkeys(keys))
+        return self._loss_in_keys()
 
     def _forward_value_estimator_keys(self, **kwargs) -> None:
         if self._value_estimator is not None:

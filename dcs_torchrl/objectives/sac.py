@@ -174,15 +174,7 @@ class DrQSACLoss(DrQEncoding, SACLoss):
 
     @property
     def in_keys(self):
-        keys = [
-            self.tensor_keys.action,
-            ("next", self.tensor_keys.reward),
-            ("next", self.tensor_keys.done),
-            ("next", self.tensor_keys.terminated),
-            *self.encoder_network.in_keys,
-            *[("next", key) for key in self.encoder_network.in_keys],
-        ]
-        return list(dict.fromkeys(keys))
+        return self._loss_in_keys()
 
     @in_keys.setter
     def in_keys(self, values):

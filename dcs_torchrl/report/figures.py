@@ -6,7 +6,8 @@
 - :func:`benchmark_figure`: per benchmark (none / easy / medium / blind) one bar per method with
   its s.e.; a black star at the expected score if the degradations were independent (no-
   distraction score × product of the single-distraction relative scores, the paper's Figs. 6-7);
-  the paper's published means as hollow diamonds and its expected scores as hollow stars.
+  the paper's means as hollow diamonds (over the same tasks as the bars when the run has fewer than
+  the paper's six) and its expected scores (over its six tasks, the only ones it publishes) as hollow stars.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS
+from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.paper import MEAN_DOMAIN
@@ -107,6 +108,11 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     benchmarks = [b for b in BENCHMARK_ORDER if b in set(means["benchmark"])]
     benchmarks += sorted(set(means["benchmark"]) - set(benchmarks))
     inter = interactions[interactions.dynamic == dynamic]
+    n_tasks = tables.loc[tables.domain != MEAN_DOMAIN, ["domain", "task"]].drop_duplicates().shape[0]
+    subset = n_tasks < len(TASK_ORDER)
+    paper_label = f"paper: mean over the same {n_tasks} task" + "s" * (n_tasks > 1) if subset else "paper: mean"
+    # the paper publishes its relative scores (so its expected score) over its six tasks only
+    expected_label = f"paper: expected, over its {len(TASK_ORDER)} tasks" if subset else "paper: expected"
     width = 0.8 / len(METHODS)
     fig = Figure(figsize=(10, 4.8))
     ax = fig.subplots()
@@ -121,7 +127,7 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
         spread = have & np.isfinite(stderr)  # one seed has no standard error: no bar rather than a zero one
         ax.errorbar(x[spread], mean[spread], yerr=stderr[spread], fmt="none", ecolor="k", capsize=2, lw=0.8)
         ax.scatter(x[~have], np.zeros((~have).sum()), marker="x", s=18, color="0.55", lw=1, zorder=3, clip_on=False)
-        ax.scatter(x, m["paper_mean"], marker="D", s=28, facecolors="none", edgecolors="k", lw=1, zorder=3)
+        ax.scatter(x, m["paper_same_tasks"], marker="D", s=28, facecolors="none", edgecolors="k", lw=1, zorder=3)
         rows = inter[inter.method == method].set_index("difficulty")
         for j, b in enumerate(benchmarks):
             if b in rows.index:
@@ -138,8 +144,8 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""), fontsize=12)
     markers = [
         Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)"),
-        Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label="paper: expected"),
-        Line2D([], [], marker="D", color="k", mfc="none", ls="", ms=6, label="paper: mean"),
+        Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label=expected_label),
+        Line2D([], [], marker="D", color="k", mfc="none", ls="", ms=6, label=paper_label),
     ] + ([Line2D([], [], marker="x", color="0.55", ls="", ms=6, label="no results")] if any_missing else [])
     handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + markers
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from dcs_torchrl.report.experiments import BENCHMARK_ORDER, METHODS, SEEDS, task_label
+from dcs_torchrl.report.experiments import BENCHMARK_ORDER, METHODS, SEEDS, TASK_ORDER, task_label
 from dcs_torchrl.report.markdown import MISSING, fmt_score, md_table, seed_counts
 from dcs_torchrl.report.paper import MEAN_DOMAIN, MEAN_TASK, paper_benchmarks
 from dcs_torchrl.report.select import select
@@ -31,7 +31,7 @@ __all__ = [
 EXPERIMENT = "benchmarks"
 BENCHMARK_COLUMNS = (
     "benchmark", "dynamic", "method", "domain", "task", "mean", "stderr", "n", "bold",
-    "paper_mean", "paper_stderr", "paper_bold",
+    "paper_mean", "paper_stderr", "paper_bold", "paper_same_tasks",
 )
 
 BOLD_FOOTNOTE = (
@@ -80,7 +80,9 @@ def benchmark_table(runs: pd.DataFrame, benchmark: str, dynamic: bool | None,
 
     Returns:
         columns :data:`BENCHMARK_COLUMNS`; the mean over tasks has ``domain="all", task="mean"``;
-        a missing cell has NaN ``mean`` and ``n = 0``.
+        a missing cell has NaN ``mean`` and ``n = 0``. ``paper_same_tasks`` is the paper's score to
+        compare with: its published mean, or, when ``tasks`` are fewer than its six, the mean of its
+        per-task scores over ``tasks`` (NaN if one of them is not published).
     """
     dynamic = None if benchmark == "none" else dynamic
     rows = select(runs, experiment=EXPERIMENT, axis="benchmark", value=benchmark, dynamic=dynamic)
@@ -107,7 +109,16 @@ def benchmark_table(runs: pd.DataFrame, benchmark: str, dynamic: bool | None,
                 "paper_stderr": float(p.stderr) if p is not None else math.nan,
                 "paper_bold": bool(p.bold) if p is not None else None,
             })
-    return pd.DataFrame.from_records(records, columns=list(BENCHMARK_COLUMNS))
+    table = pd.DataFrame.from_records(records, columns=list(BENCHMARK_COLUMNS))
+    # The paper's score to set beside this run's: per task its own, for the mean its published mean
+    # if the table has all of its tasks, else the mean of its per-task scores over the table's tasks.
+    table["paper_same_tasks"] = table["paper_mean"]
+    if len(tasks) < len(TASK_ORDER):
+        per_task = table[table.domain != MEAN_DOMAIN].groupby("method", sort=False)["paper_mean"]
+        same = per_task.agg(lambda v: v.mean() if len(v) and not v.isna().any() else math.nan)
+        is_mean = table.domain == MEAN_DOMAIN
+        table.loc[is_mean, "paper_same_tasks"] = table.loc[is_mean, "method"].map(same).to_numpy(float)
+    return table
 
 
 def _grid(table: pd.DataFrame, prefix: str, annotate: bool) -> list[list[str]]:
@@ -150,15 +161,27 @@ def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
                 parts += [note, ""]
     parts.append("## Mean over tasks: this run vs paper")
     parts.append("")
+    n_tasks = first[first.domain != MEAN_DOMAIN][["domain", "task"]].drop_duplicates().shape[0]
+    subset = n_tasks < len(TASK_ORDER)
     rows = []
     for table in tables:
         setting = setting_name(table["dynamic"].iloc[0]) or "—"
         for r in table[table.domain == MEAN_DOMAIN].itertuples():
             mine = fmt_score(None if np.isnan(r.mean) else r.mean, r.stderr, r.n if annotate else None)
             paper = fmt_score(None if np.isnan(r.paper_mean) else r.paper_mean, r.paper_stderr)
-            ratio = r.mean / r.paper_mean if r.paper_mean and not np.isnan(r.mean) else math.nan
-            rows.append([setting, r.method, mine, paper, MISSING if np.isnan(ratio) else f"{ratio:.2f}"])
-    parts += [md_table(["Setting", "Method", "This run", "Paper", "This run / paper"], rows, "llrrr"), ""]
+            row = [setting, r.method, mine, paper]
+            reference = r.paper_same_tasks
+            if subset:
+                row.append(MISSING if np.isnan(reference) else f"{reference:.0f}")
+            ratio = r.mean / reference if reference and not np.isnan(r.mean) else math.nan
+            rows.append(row + [MISSING if np.isnan(ratio) else f"{ratio:.2f}"])
+    header = ["Setting", "Method", "This run", f"Paper ({len(TASK_ORDER)} tasks)"]
+    if subset:
+        parts += [f"This run has {n_tasks} of the paper's {len(TASK_ORDER)} tasks: its mean is compared with "
+                  "the mean of the paper's per-task scores on the same tasks, not with the paper's mean.", ""]
+        header += [f"Paper, same {n_tasks} task{'s' * (n_tasks > 1)}"]
+    header += ["This run / paper" + (" (same tasks)" if subset else "")]
+    parts += [md_table(header, rows, "llr" + "r" * (len(header) - 3)), ""]
     parts += [BOLD_FOOTNOTE, ""]
     return "\n".join(parts)
 

@@ -64,6 +64,9 @@ def test_paper_numbers_are_alongside(table):
     r = table.loc[("QT-Opt+RAD", "mean")]
     assert (r["paper_mean"], r["paper_stderr"], r["paper_bold"]) == (317.0, 8.0, True)
     assert table.loc[("SAC", "run"), "paper_mean"] == 64.0
+    # two of the paper's six tasks: its score to compare with is its mean over the same two
+    assert r["paper_same_tasks"] == pytest.approx((446 + 220) / 2)
+    assert table.loc[("SAC", "run"), "paper_same_tasks"] == 64.0
 
 
 def test_markdown_shows_bold_seed_counts_missing_and_the_paper(table):
@@ -73,7 +76,9 @@ def test_markdown_shows_bold_seed_counts_missing_and_the_paper(table):
     assert "| SAC+RAD | 158 (n=1) | **310** (n=1) | 5 (n=1) |" in lines  # single seed: no standard error
     assert "| QT-Opt | — | — | 190 ± 0 (n=3) |" in lines  # missing cells
     assert "| QT-Opt+RAD | **317 ± 8** | **446 ± 23** | **220 ± 5** |" in lines  # the paper's row, its bold
-    assert "| static | QT-Opt+RAD | 210 ± 6 (n=3) | 317 ± 8 | 0.66 |" in lines
+    # two of six tasks: the ratio is to the paper's mean over the same two (446 and 220), not to 317
+    assert "This run has 2 of the paper's 6 tasks" in md
+    assert "| static | QT-Opt+RAD | 210 ± 6 (n=3) | 317 ± 8 | 333 | 0.63 |" in lines
     assert "one-sided z-test on mean ± s.e." in md
 
 
@@ -84,3 +89,15 @@ def test_no_distraction_table_pools_static_and_dynamic(results_dir):
     table = benchmark_table(load_results(results_dir).runs, "none", True, [("cheetah", "run")])
     r = table.set_index(["method", "task"]).loc[("SAC", "run")]
     assert (r["mean"], r["n"], r["dynamic"]) == (350.0, 2, None)  # seed 0 counts once, as 200
+
+
+def test_markdown_with_every_task_compares_with_the_papers_mean(results_dir):
+    from dcs_torchrl.report.experiments import TASK_ORDER
+
+    for domain, task in TASK_ORDER:
+        write_run(results_dir, 317.0 * 0.5, method="QT-Opt+RAD", domain=domain, task=task, value="easy")
+    table = benchmark_table(load_results(results_dir).runs, "easy", False, list(TASK_ORDER))
+    md = benchmark_markdown([table], "Benchmark `easy`")
+    assert "same tasks" not in md and "tasks: its mean is compared" not in md
+    assert "| static | QT-Opt+RAD | 158 | 317 ± 8 | 0.50 |" in md.splitlines()
+    assert table.loc[table.domain == "all", "paper_same_tasks"].equals(table.loc[table.domain == "all", "paper_mean"])

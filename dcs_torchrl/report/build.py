@@ -32,7 +32,7 @@ from dcs_torchrl.report.missing import expected_tasks, missing_cells
 from dcs_torchrl.report.paper import MEAN_DOMAIN
 from dcs_torchrl.report.select import select, tasks_of
 from dcs_torchrl.report.tables import (BOLD_FOOTNOTE, benchmark_markdown, benchmark_names, benchmark_table,
-                                       setting_name, settings_of)
+                                       is_paper_task_set, setting_name, settings_of)
 
 __all__ = ["REPORTED", "Report", "build_report"]
 
@@ -177,7 +177,7 @@ def _benchmarks(runs: pd.DataFrame, inter: pd.DataFrame, w: _Writer) -> list[str
             cells.append(mine + paper)
         rows.append(cells)
     header = ["Method"] + [f"{b} {setting_name(d)}".strip() for b, d in columns]
-    caveat = "" if len(tasks) == len(TASK_ORDER) else (
+    caveat = "" if is_paper_task_set(tasks) else (
         f" — this run's mean is over {len(tasks)} tasks, the paper's over {len(TASK_ORDER)}: not comparable")
     md += [f"Mean over tasks, this run (the paper's mean in brackets{caveat}):", "", md_table(header, rows), ""]
     md += [note, ""] if note else []

@@ -22,6 +22,7 @@ __all__ = [
     "BENCHMARK_COLUMNS",
     "BOLD_FOOTNOTE",
     "settings_of",
+    "is_paper_task_set",
     "benchmark_table",
     "benchmark_markdown",
     "setting_name",
@@ -43,6 +44,11 @@ BOLD_FOOTNOTE = (
     "are bold only if they have the highest mean. Mean: per seed, the "
     "mean over the tasks of the table, then mean ± s.e. over the seeds that have every task."
 )
+
+
+def is_paper_task_set(tasks: Sequence[tuple[str, str]]) -> bool:
+    """Whether ``tasks`` are exactly the paper's six, so that a mean over them compares with its mean."""
+    return {tuple(t) for t in tasks} == set(TASK_ORDER)
 
 
 def settings_of(benchmark: str) -> tuple[bool | None, ...]:
@@ -113,7 +119,7 @@ def benchmark_table(runs: pd.DataFrame, benchmark: str, dynamic: bool | None,
     # The paper's score to set beside this run's: per task its own, for the mean its published mean
     # if the table has all of its tasks, else the mean of its per-task scores over the table's tasks.
     table["paper_same_tasks"] = table["paper_mean"]
-    if len(tasks) < len(TASK_ORDER):
+    if not is_paper_task_set(tasks):
         per_task = table[table.domain != MEAN_DOMAIN].groupby("method", sort=False)["paper_mean"]
         same = per_task.agg(lambda v: v.mean() if len(v) and not v.isna().any() else math.nan)
         is_mean = table.domain == MEAN_DOMAIN
@@ -161,8 +167,8 @@ def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
                 parts += [note, ""]
     parts.append("## Mean over tasks: this run vs paper")
     parts.append("")
-    n_tasks = first[first.domain != MEAN_DOMAIN][["domain", "task"]].drop_duplicates().shape[0]
-    subset = n_tasks < len(TASK_ORDER)
+    columns = list(first[first.domain != MEAN_DOMAIN][["domain", "task"]].drop_duplicates().itertuples(index=False))
+    n_tasks, subset = len(columns), not is_paper_task_set(columns)
     rows = []
     for table in tables:
         setting = setting_name(table["dynamic"].iloc[0]) or "—"
@@ -177,7 +183,8 @@ def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
             rows.append(row + [MISSING if np.isnan(ratio) else f"{ratio:.2f}"])
     header = ["Setting", "Method", "This run", f"Paper ({len(TASK_ORDER)} tasks)"]
     if subset:
-        parts += [f"This run has {n_tasks} of the paper's {len(TASK_ORDER)} tasks: its mean is compared with "
+        these = f"This run's {n_tasks} task" + ("s are" if n_tasks > 1 else " is")
+        parts += [f"{these} not the paper's {len(TASK_ORDER)}: its mean is compared with "
                   "the mean of the paper's per-task scores on the same tasks, not with the paper's mean.", ""]
         header += [f"Paper, same {n_tasks} task{'s' * (n_tasks > 1)}"]
     header += ["This run / paper" + (" (same tasks)" if subset else "")]

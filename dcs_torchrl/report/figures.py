@@ -25,7 +25,7 @@ from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.paper import MEAN_DOMAIN
-from dcs_torchrl.report.tables import is_paper_task_set, setting_name
+from dcs_torchrl.report.tables import is_paper_task_set, setting_name, task_columns, tasks_text
 
 __all__ = ["METHOD_COLORS", "curves_figure", "benchmark_figure"]
 
@@ -108,10 +108,9 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     benchmarks = [b for b in BENCHMARK_ORDER if b in set(means["benchmark"])]
     benchmarks += sorted(set(means["benchmark"]) - set(benchmarks))
     inter = interactions[interactions.dynamic == dynamic]
-    task_rows = tables.loc[tables.domain != MEAN_DOMAIN, ["domain", "task"]]
-    columns = list(task_rows.drop_duplicates().itertuples(index=False))
-    n_tasks, subset = len(columns), not is_paper_task_set(columns)
-    paper_label = f"paper: mean over the same {n_tasks} task" + "s" * (n_tasks > 1) if subset else "paper: mean"
+    columns = task_columns(tables)
+    subset = not is_paper_task_set(columns)
+    paper_label = f"paper: mean over the same {tasks_text(len(columns))}" if subset else "paper: mean"
     # the paper publishes its relative scores (so its expected score) over its six tasks only
     expected_label = f"paper: expected, over its {len(TASK_ORDER)} tasks" if subset else "paper: expected"
     width = 0.8 / len(METHODS)

@@ -23,6 +23,8 @@ __all__ = [
     "BOLD_FOOTNOTE",
     "settings_of",
     "is_paper_task_set",
+    "task_columns",
+    "tasks_text",
     "benchmark_table",
     "benchmark_markdown",
     "setting_name",
@@ -49,6 +51,17 @@ BOLD_FOOTNOTE = (
 def is_paper_task_set(tasks: Sequence[tuple[str, str]]) -> bool:
     """Whether ``tasks`` are exactly the paper's six, so that a mean over them compares with its mean."""
     return {tuple(t) for t in tasks} == set(TASK_ORDER)
+
+
+def task_columns(table: pd.DataFrame) -> list[tuple[str, str]]:
+    """The ``(domain, task)`` columns of benchmark tables, in order, without the mean."""
+    rows = table.loc[table.domain != MEAN_DOMAIN, ["domain", "task"]].drop_duplicates()
+    return [tuple(r) for r in rows.itertuples(index=False)]
+
+
+def tasks_text(n: int) -> str:
+    """``"1 task"`` / ``"6 tasks"``."""
+    return f"{n} task" + "s" * (n != 1)
 
 
 def settings_of(benchmark: str) -> tuple[bool | None, ...]:
@@ -87,7 +100,7 @@ def benchmark_table(runs: pd.DataFrame, benchmark: str, dynamic: bool | None,
     Returns:
         columns :data:`BENCHMARK_COLUMNS`; the mean over tasks has ``domain="all", task="mean"``;
         a missing cell has NaN ``mean`` and ``n = 0``. ``paper_same_tasks`` is the paper's score to
-        compare with: its published mean, or, when ``tasks`` are fewer than its six, the mean of its
+        compare with: its published mean, or, when ``tasks`` are not exactly its six, the mean of its
         per-task scores over ``tasks`` (NaN if one of them is not published).
     """
     dynamic = None if benchmark == "none" else dynamic
@@ -167,7 +180,7 @@ def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
                 parts += [note, ""]
     parts.append("## Mean over tasks: this run vs paper")
     parts.append("")
-    columns = list(first[first.domain != MEAN_DOMAIN][["domain", "task"]].drop_duplicates().itertuples(index=False))
+    columns = task_columns(first)
     n_tasks, subset = len(columns), not is_paper_task_set(columns)
     rows = []
     for table in tables:
@@ -183,10 +196,11 @@ def benchmark_markdown(tables: Sequence[pd.DataFrame], title: str) -> str:
             rows.append(row + [MISSING if np.isnan(ratio) else f"{ratio:.2f}"])
     header = ["Setting", "Method", "This run", f"Paper ({len(TASK_ORDER)} tasks)"]
     if subset:
-        these = f"This run's {n_tasks} task" + ("s are" if n_tasks > 1 else " is")
-        parts += [f"{these} not the paper's {len(TASK_ORDER)}: its mean is compared with "
-                  "the mean of the paper's per-task scores on the same tasks, not with the paper's mean.", ""]
-        header += [f"Paper, same {n_tasks} task{'s' * (n_tasks > 1)}"]
+        verb = "are" if n_tasks > 1 else "is"
+        parts += [f"This run's {tasks_text(n_tasks)} {verb} not the paper's {len(TASK_ORDER)}: its mean is "
+                  "compared with the mean of the paper's per-task scores on the same tasks, not with the "
+                  "paper's mean.", ""]
+        header += [f"Paper, same {tasks_text(n_tasks)}"]
     header += ["This run / paper" + (" (same tasks)" if subset else "")]
     parts += [md_table(header, rows, "llr" + "r" * (len(header) - 3)), ""]
     parts += [BOLD_FOOTNOTE, ""]

@@ -4,6 +4,7 @@ import math
 import pytest
 from synthetic_results import write_run
 
+from dcs_torchrl.report.experiments import TASK_ORDER
 from dcs_torchrl.report.load import load_results
 from dcs_torchrl.report.tables import benchmark_markdown, benchmark_table
 
@@ -92,8 +93,6 @@ def test_no_distraction_table_pools_static_and_dynamic(results_dir):
 
 
 def test_markdown_with_every_task_compares_with_the_papers_mean(results_dir):
-    from dcs_torchrl.report.experiments import TASK_ORDER
-
     for domain, task in TASK_ORDER:
         write_run(results_dir, 317.0 * 0.5, method="QT-Opt+RAD", domain=domain, task=task, value="easy")
     table = benchmark_table(load_results(results_dir).runs, "easy", False, list(TASK_ORDER))
@@ -104,8 +103,6 @@ def test_markdown_with_every_task_compares_with_the_papers_mean(results_dir):
 
 
 def test_six_tasks_that_are_not_the_papers_are_compared_task_by_task(results_dir):
-    from dcs_torchrl.report.experiments import TASK_ORDER
-
     tasks = [*TASK_ORDER[:5], ("cheetah", "walk")]  # five of the paper's and one it did not run
     for domain, task in tasks:
         write_run(results_dir, 100.0, method="QT-Opt+RAD", domain=domain, task=task, value="easy")

@@ -6,8 +6,9 @@
 - :func:`benchmark_figure`: per benchmark (none / easy / medium / blind) one bar per method with
   its s.e.; a black star at the expected score if the degradations were independent (no-
   distraction score × product of the single-distraction relative scores, the paper's Figs. 6-7);
-  the paper's means as hollow diamonds (over the same tasks as the bars when the run has fewer than
-  the paper's six) and its expected scores (over its six tasks, the only ones it publishes) as hollow stars.
+  the paper's means as hollow diamonds (over the same tasks as the bars when the run's tasks are not
+  exactly the paper's six) and its expected scores (over its six tasks, the only ones it publishes) as
+  hollow stars. The legend names only the markers drawn (:func:`benchmark_markers`).
 """
 from __future__ import annotations
 
@@ -116,7 +117,7 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     width = 0.8 / len(METHODS)
     fig = Figure(figsize=(10, 4.8))
     ax = fig.subplots()
-    any_missing = False
+    any_missing = drew_expected = drew_paper_expected = False
     for i, method in enumerate(METHODS):
         m = means[means.method == method].set_index("benchmark").reindex(benchmarks)
         x = np.arange(len(benchmarks)) + (i - (len(METHODS) - 1) / 2) * width
@@ -131,10 +132,13 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
         rows = inter[inter.method == method].set_index("difficulty")
         for j, b in enumerate(benchmarks):
             if b in rows.index:
-                ax.scatter(x[j], rows.at[b, "expected"], marker="*", s=110, color="k", zorder=4)
+                expected = rows.at[b, "expected"]
+                ax.scatter(x[j], expected, marker="*", s=110, color="k", zorder=4)
                 paper_none = m.at["none", "paper_mean"] if "none" in m.index else np.nan
                 paper_expected = paper_none * rows.at[b, "paper_product"]
                 ax.scatter(x[j], paper_expected, marker="*", s=110, facecolors="none", edgecolors="k", lw=0.8, zorder=4)
+                drew_expected |= bool(np.isfinite(expected))
+                drew_paper_expected |= bool(np.isfinite(paper_expected))
     ax.set_xticks(np.arange(len(benchmarks)), benchmarks)
     ax.set_xlabel("benchmark (none: no distraction; blind: medium with the camera turned away)")
     ax.set_ylabel(YLABEL)
@@ -142,15 +146,28 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     ax.grid(axis="y", alpha=0.3)
     # over the whole figure, legend included: a long note would be cut off over the axes alone
     fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""), fontsize=12)
-    markers = [
-        Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)"),
-        Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label=expected_label),
-        Line2D([], [], marker="D", color="k", mfc="none", ls="", ms=6, label=paper_label),
-    ] + ([Line2D([], [], marker="x", color="0.55", ls="", ms=6, label="no results")] if any_missing else [])
-    handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + markers
+    handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + benchmark_markers(
+        expected=drew_expected, paper_expected=drew_paper_expected, missing=any_missing,
+        paper_label=paper_label, expected_label=expected_label)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def benchmark_markers(*, expected: bool, paper_expected: bool, missing: bool, paper_label: str,
+                      expected_label: str) -> list[Line2D]:
+    """The legend's marker entries of :func:`benchmark_figure`: only those of markers it drew.
+
+    The expected-score stars need the interactions experiment's runs (each distraction alone at the
+    benchmark's level); a study without them draws none and its legend names none.
+    """
+    entries = [
+        (expected, Line2D([], [], marker="*", color="k", ls="", ms=11, label="expected (independent degradations)")),
+        (paper_expected, Line2D([], [], marker="*", color="k", mfc="none", ls="", ms=11, label=expected_label)),
+        (True, Line2D([], [], marker="D", color="k", mfc="none", ls="", ms=6, label=paper_label)),
+        (missing, Line2D([], [], marker="x", color="0.55", ls="", ms=6, label="no results")),
+    ]
+    return [entry for drawn, entry in entries if drawn]
 
 
 def _save(fig, path) -> Path:

@@ -1,0 +1,40 @@
+"""The benchmark figure's legend names the markers it drew, and only those."""
+from synthetic_results import write_run
+
+from dcs_torchrl.report.build import build_report
+from dcs_torchrl.report import figures
+from dcs_torchrl.report.figures import benchmark_markers
+
+LABELS = dict(paper_label="paper: mean", expected_label="paper: expected")
+
+
+def test_every_marker_drawn_is_named():
+    labels = [h.get_label() for h in benchmark_markers(expected=True, paper_expected=True, missing=True, **LABELS)]
+    assert labels == ["expected (independent degradations)", "paper: expected", "paper: mean", "no results"]
+
+
+def test_stars_not_drawn_are_not_named():
+    # a study without the interactions experiment's runs has no expected score to draw
+    labels = [h.get_label() for h in benchmark_markers(expected=False, paper_expected=True, missing=False, **LABELS)]
+    assert labels == ["paper: expected", "paper: mean"]
+    labels = [h.get_label() for h in benchmark_markers(expected=False, paper_expected=False, missing=False, **LABELS)]
+    assert labels == ["paper: mean"]
+
+
+def test_figure_without_interaction_runs_names_no_expected_score(results_dir, tmp_path, monkeypatch):
+    # benchmark runs only, no single-distraction training runs: no expected score of this run to draw,
+    # the paper's (its published relative scores) drawn
+    for value, score in (("none", 800.0), ("easy", 300.0), ("medium", 200.0)):
+        write_run(results_dir, score, method="SAC+RAD", domain="cartpole", task="swingup",
+                  experiment="benchmarks", axis="benchmark", value=value)
+    calls = []
+
+    def recording(**kw):
+        calls.append(kw)
+        return benchmark_markers(**kw)
+
+    monkeypatch.setattr(figures, "benchmark_markers", recording)
+    build_report(results_dir, tmp_path / "report")
+    assert len(calls) == 2  # static and dynamic figures
+    assert all(not c["expected"] and c["paper_expected"] and c["missing"] for c in calls)
+    assert (tmp_path / "report" / "figures" / "benchmarks_static.png").stat().st_size > 10_000

@@ -1,8 +1,8 @@
 """The benchmark figure's legend names the markers it drew, and only those."""
 from synthetic_results import write_run
 
-from dcs_torchrl.report.build import build_report
 from dcs_torchrl.report import figures
+from dcs_torchrl.report.build import build_report
 from dcs_torchrl.report.figures import benchmark_markers
 
 LABELS = dict(paper_label="paper: mean", expected_label="paper: expected")

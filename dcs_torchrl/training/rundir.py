@@ -1,7 +1,8 @@
 """A run directory belongs to one configuration: finished runs are skipped, others resume.
 
 ``run_config.json`` records the settings that define what is trained (everything but the
-budget, evaluation, logging, checkpoint cadence and device). Launching again with the same
+budget, evaluation, logging, checkpoint cadence and how the same math is run: device,
+``network.channels_last``, ``network.compile``). Launching again with the same
 settings in the same directory resumes from the last checkpoint, or does nothing if
 ``results.json`` already holds a run of at least the requested budget. Different settings are
 an error that names both values: nothing in the directory is overwritten.
@@ -15,8 +16,11 @@ from pathlib import Path
 
 __all__ = ["IDENTITY_EXCLUDED", "RunDirectory", "RunMismatchError", "finished_results", "flatten", "write_json_atomic"]
 
-# Top-level config entries that may change between launches of the same run.
-IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "experiment", "sweep", "progress")
+# Config entries (dotted for nested ones) that may change between launches of the same run: the
+# budget, evaluation, logging and checkpoint cadence, and how the same math is run (device, NHWC
+# convolutions, torch.compile), so that a run started before a default changed still resumes.
+IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "experiment", "sweep", "progress",
+                     "network.channels_last", "network.compile")
 
 
 class RunMismatchError(ValueError):
@@ -38,6 +42,23 @@ def flatten(tree, prefix: str = "") -> dict[str, object]:
             out.update(flatten(value, f"{prefix}{key}."))
         return out
     return {prefix[:-1]: tree}
+
+
+def _identity(flat: Mapping[str, object]) -> dict[str, object]:
+    """The dotted entries of ``flat`` that are not (under) an :data:`IDENTITY_EXCLUDED` entry."""
+    return {k: v for k, v in flat.items() if not any(k == e or k.startswith(e + ".") for e in IDENTITY_EXCLUDED)}
+
+
+def _nested(flat: Mapping[str, object]) -> dict:
+    """``{"a.b": 1}`` -> ``{"a": {"b": 1}}`` (the inverse of :func:`flatten`)."""
+    out: dict = {}
+    for key, value in flat.items():
+        *parents, leaf = key.split(".")
+        node = out
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    return out
 
 
 def finished_results(run_dir: str | os.PathLike, steps: int | None = None, episodes: int | None = None) -> dict | None:
@@ -66,7 +87,7 @@ class RunDirectory:
         self.path = Path(path)
         self.path.mkdir(parents=True, exist_ok=True)
         self.config = dict(config)
-        self.identity = {k: v for k, v in self.config.items() if k not in IDENTITY_EXCLUDED}
+        self.identity = _nested(_identity(flatten(self.config)))
         self.checkpoints = self.path / "checkpoints"
         self.results_path = self.path / "results.json"
 
@@ -75,7 +96,7 @@ class RunDirectory:
         recorded_path = self.path / "run_config.json"
         if recorded_path.exists():
             recorded = json.loads(recorded_path.read_text())
-            mine, theirs = flatten(self.identity), flatten(recorded)
+            mine, theirs = _identity(flatten(self.identity)), _identity(flatten(recorded))
             diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>"))
             if diff:
                 lines = ", ".join(f"{k}: {theirs.get(k, '<unset>')!r} there, {mine.get(k, '<unset>')!r} now" for k in diff)

@@ -166,7 +166,7 @@ def test_policy_pipeline_and_state_dict_round_trip():
 @pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None, reason="inductor needs a C++ compiler")
 def test_compiled_and_channels_last_encoder_match_eager():
     torch.manual_seed(6)
-    eager = PixelEncoder(9)
+    eager = PixelEncoder(9, channels_last=False)
     fast = PixelEncoder(9, channels_last=True, compile=True)
     fast.load_state_dict(eager.state_dict())
     pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)

@@ -90,6 +90,20 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     assert json.loads((run_dir / "results.json").read_text())["steps"] == 960
 
 
+def test_a_run_made_with_nchw_convolutions_resumes_under_the_channels_last_default(tmp_path):
+    """network.channels_last (and compile) change how the same math runs, not the run: the
+    default went from false to true, and runs started before it still resume from their checkpoints."""
+    run_dir = tmp_path / "run"
+    first = recipe("sac", run_dir, "algo.aug=rad", "total_frames=320", "network.channels_last=false")
+    assert first.returncode == 0, first.stdout + first.stderr
+    longer = recipe("sac", run_dir, "algo.aug=rad", "total_frames=480")  # the default: channels_last=true
+    assert longer.returncode == 0, longer.stdout + longer.stderr
+    assert "resuming from the checkpoint at 320 frames" in longer.stdout
+    results = json.loads((run_dir / "results.json").read_text())
+    assert results["steps"] == 480 and results["config"]["network"]["channels_last"] is True
+    assert "channels_last" not in json.loads((run_dir / "run_config.json").read_text())["network"]
+
+
 def test_a_run_killed_before_its_first_checkpoint_starts_again_from_frame_0(tmp_path):
     run_dir = tmp_path / "run"
     args = ("checkpoint.interval=100000",)  # no checkpoint before the end

@@ -57,6 +57,20 @@ def test_run_directory_identity(tmp_path):
     assert json.loads((tmp_path / "results.json").read_text())["steps"] == 100
 
 
+def test_how_the_same_math_runs_is_not_part_of_a_runs_identity(tmp_path):
+    # a run started when network.channels_last defaulted to false resumes under the new default
+    network = {"feature_dim": 50, "channels_last": False, "compile": False}
+    config = {"seed": 1, "env": {"domain": "cartpole"}, "network": network, "device": "cpu"}
+    (tmp_path / "run_config.json").write_text(json.dumps({k: v for k, v in config.items() if k != "device"}))
+    RunDirectory(tmp_path, {**config, "network": {**network, "channels_last": True, "compile": True}}).claim()
+    with pytest.raises(RunMismatchError, match="network.feature_dim: 50 there, 64 now"):
+        RunDirectory(tmp_path, {**config, "network": {**network, "feature_dim": 64}}).claim()
+    fresh = tmp_path / "fresh"
+    RunDirectory(fresh, config).claim()
+    assert json.loads((fresh / "run_config.json").read_text()) == {
+        "seed": 1, "env": {"domain": "cartpole"}, "network": {"feature_dim": 50}}
+
+
 def test_wandb_backend_is_torchrls_logger_and_resumes_the_same_run(tmp_path, monkeypatch):
     pytest.importorskip("wandb")
     from torchrl.record.loggers import WandbLogger

@@ -44,21 +44,10 @@ def flatten(tree, prefix: str = "") -> dict[str, object]:
     return {prefix[:-1]: tree}
 
 
-def _identity(flat: Mapping[str, object]) -> dict[str, object]:
-    """The dotted entries of ``flat`` that are not (under) an :data:`IDENTITY_EXCLUDED` entry."""
-    return {k: v for k, v in flat.items() if not any(k == e or k.startswith(e + ".") for e in IDENTITY_EXCLUDED)}
-
-
-def _nested(flat: Mapping[str, object]) -> dict:
-    """``{"a.b": 1}`` -> ``{"a": {"b": 1}}`` (the inverse of :func:`flatten`)."""
-    out: dict = {}
-    for key, value in flat.items():
-        *parents, leaf = key.split(".")
-        node = out
-        for part in parents:
-            node = node.setdefault(part, {})
-        node[leaf] = value
-    return out
+def _identity(tree: Mapping, prefix: str = "") -> dict:
+    """``tree`` without its :data:`IDENTITY_EXCLUDED` entries (dotted paths, whole subtrees)."""
+    return {key: _identity(value, f"{prefix}{key}.") if isinstance(value, Mapping) else value
+            for key, value in tree.items() if f"{prefix}{key}" not in IDENTITY_EXCLUDED}
 
 
 def finished_results(run_dir: str | os.PathLike, steps: int | None = None, episodes: int | None = None) -> dict | None:
@@ -87,7 +76,7 @@ class RunDirectory:
         self.path = Path(path)
         self.path.mkdir(parents=True, exist_ok=True)
         self.config = dict(config)
-        self.identity = _nested(_identity(flatten(self.config)))
+        self.identity = _identity(self.config)
         self.checkpoints = self.path / "checkpoints"
         self.results_path = self.path / "results.json"
 
@@ -96,7 +85,7 @@ class RunDirectory:
         recorded_path = self.path / "run_config.json"
         if recorded_path.exists():
             recorded = json.loads(recorded_path.read_text())
-            mine, theirs = _identity(flatten(self.identity)), _identity(flatten(recorded))
+            mine, theirs = flatten(self.identity), flatten(_identity(recorded))
             diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>"))
             if diff:
                 lines = ", ".join(f"{k}: {theirs.get(k, '<unset>')!r} there, {mine.get(k, '<unset>')!r} now" for k in diff)

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import random
 import statistics
 import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import torch  # noqa: E402
-from env_speed import interleaved_medians, time_steps  # noqa: E402  (benchmarks/ is the script's directory)
+from env_speed import interleaved_rounds, time_steps  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
 from dcs_torchrl import render  # noqa: E402
@@ -78,6 +79,21 @@ def pixel_difference(envs: list, seeds: range, steps: int) -> tuple[float, int]:
     return total / count, worst
 
 
+def quartiles(values: list[float]) -> str:
+    """The first and third quartiles of ``values``, as ``"q1-q3"``."""
+    if len(values) < 2:
+        return f"{values[0]:.3f}-{values[0]:.3f}"
+    q1, _, q3 = statistics.quantiles(values, n=4, method="inclusive")
+    return f"{q1:.3f}-{q3:.3f}"
+
+
+def median_interval(values: list[float], resamples: int = 2000, seed: int = 0) -> tuple[float, float]:
+    """A 95% bootstrap interval of the median of ``values`` (percentiles of resampled medians)."""
+    rng = random.Random(seed)
+    medians = sorted(statistics.median(rng.choices(values, k=len(values))) for _ in range(resamples))
+    return medians[int(0.025 * resamples)], medians[int(0.975 * resamples) - 1]
+
+
 def context_of(env) -> render._Context:
     """The render context of a suite env (after its first reset)."""
     renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
@@ -92,9 +108,9 @@ class Clock:
         for owner, name in methods:
             method = getattr(owner, name)
 
-            def timed(*args, _method=method):
+            def timed(*args, _method=method, **kwargs):
                 start = time.perf_counter()
-                result = _method(*args)
+                result = _method(*args, **kwargs)
                 self.seconds += time.perf_counter() - start
                 return result
 
@@ -135,21 +151,35 @@ def main():
     parser.add_argument("--upload-steps", type=int, default=500)
     parser.add_argument("--texture-size", type=int, default=None,
                         help="also time the medium dynamic env with a sky of this many texels a side")
+    parser.add_argument("--only", nargs="+", default=None, choices=list(variants("cheetah", "run")),
+                        help="time only these envs (the undistracted and the medium dynamic env always): more "
+                             "rounds in the same time, for a tighter ratio")
     args = parser.parse_args()
     if args.texture_size is not None and args.texture_size < 1:
         parser.error(f"--texture-size must be a positive number of texels, got {args.texture_size}")
     torch.set_num_threads(1)
-    envs = {name: make() for name, make in variants(args.domain, args.task, args.texture_size).items()}
-    envs[WHOLE_SKY].reset()
-    context_of(envs[WHOLE_SKY]).upload_all_faces = True  # the reference path, this env only
-    step, _ = interleaved_medians(envs, args.steps, args.rounds, resets=1)
+    makers = variants(args.domain, args.task, args.texture_size)
+    if args.only is not None:
+        keep = {"none", "medium dynamic", *args.only}
+        makers = {name: make for name, make in makers.items() if name in keep or name == coarse_sky(args.texture_size)}
+    envs = {name: make() for name, make in makers.items()}
+    if WHOLE_SKY in envs:
+        envs[WHOLE_SKY].reset()
+        context_of(envs[WHOLE_SKY]).upload_all_faces = True  # the reference path, this env only
+    rounds, _ = interleaved_rounds(envs, args.steps, args.rounds, resets=1)
+    step = {name: statistics.median(seconds) for name, seconds in rounds.items()}
     print(f"{args.domain} {args.task}, default profile, median of {args.rounds} rounds x {args.steps} steps")
     print("| env | ms/step | vs none |")
     print("|---|---:|---:|")
     for name in envs:
         print(f"| {name} | {1e3 * step[name]:.2f} | {100 * (step[name] / step['none'] - 1):+.1f}% |")
-    print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step "
-          f"(whole sky: {step[WHOLE_SKY] / step['none']:.3f})")
+    print(f"\nmedium dynamic / none: {step['medium dynamic'] / step['none']:.3f} per agent step (medians)")
+    for name in (n for n in envs if n != "none"):  # each round's own ratio: slow drifts of the machine cancel
+        ratios = sorted(a / b for a, b in zip(rounds[name], rounds["none"]))
+        low, high = median_interval(ratios)
+        print(f"{name} / none, round by round: median {statistics.median(ratios):.3f} (95% interval "
+              f"{low:.3f}-{high:.3f}), middle half {quartiles(ratios)}, range {ratios[0]:.3f}-{ratios[-1]:.3f} "
+              f"({len(ratios)} rounds)")
     if args.texture_size is not None:
         coarse = coarse_sky(args.texture_size)
         seeds, steps = range(3), 100
@@ -158,8 +188,8 @@ def main():
               f"default sky's over {len(seeds)} seeded episodes of {steps} steps: mean abs difference {mean:.2f}, "
               f"max {worst} grey levels")
     if args.upload_steps > 0:
-        split = ("none", "medium static", "medium dynamic", WHOLE_SKY)
-        split += () if args.texture_size is None else (coarse_sky(args.texture_size),)
+        split = tuple(n for n in ("none", "medium static", "medium dynamic", WHOLE_SKY, coarse_sky(args.texture_size))
+                      if n in envs)
         cost = suite_cost({name: envs[name] for name in split}, args.upload_steps)
         print(f"\nmedian of {args.upload_steps // 50} interleaved chunks of 50 steps, ms per agent step "
               "(the suite's work and the render, and each's difference to the undistracted env's):")
@@ -176,8 +206,9 @@ def main():
         print(f"\nmedium dynamic over none: {extra:+.3f} ms per step (timed above); the suite's work "
               f"{own['medium dynamic'] - own['none']:+.3f} ms = "
               f"{100 * (own['medium dynamic'] - own['none']) / (1e3 * step['none']):.1f}% of an undistracted step, "
-              f"the render {ms('medium dynamic', 'render') - ms('none', 'render'):+.3f} ms; sky upload "
-              f"{cost['medium dynamic', 'upload'] / cost[WHOLE_SKY, 'upload']:.2f}x the whole sky's")
+              f"the render {ms('medium dynamic', 'render') - ms('none', 'render'):+.3f} ms"
+              + (f"; sky upload {cost['medium dynamic', 'upload'] / cost[WHOLE_SKY, 'upload']:.2f}x the whole sky's"
+                 if WHOLE_SKY in envs else ""))
     for env in envs.values():
         env.close()
 

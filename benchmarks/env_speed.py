@@ -59,20 +59,28 @@ def time_resets(env, resets):
     return (time.perf_counter() - start) / resets
 
 
-def interleaved_medians(envs: dict, steps: int, rounds: int, resets: int) -> tuple[dict, dict]:
-    """Median seconds per step and per reset of each env, timed in interleaved rounds."""
+def interleaved_rounds(envs: dict, steps: int, rounds: int, resets: int) -> tuple[dict, dict]:
+    """Seconds per step and per reset of each env in each round, the envs timed in interleaved rounds
+    (every other round in reverse order, so that no env always follows the same one)."""
     tds = {name: env.reset() for name, env in envs.items()}
     for _ in range(60):  # warm-up: contexts, code paths, and every background video decoded once
         for name, env in envs.items():
             tds[name] = env.reset()
     per_step = {name: [] for name in envs}
     per_reset = {name: [] for name in envs}
-    for _ in range(rounds):
-        for name, env in envs.items():
+    for round_ in range(rounds):
+        for name in (list(envs) if round_ % 2 == 0 else list(envs)[::-1]):
+            env = envs[name]
             seconds, tds[name] = time_steps(env, tds[name], steps)
             per_step[name].append(seconds / steps)
             per_reset[name].append(time_resets(env, resets))
             tds[name] = env.reset()
+    return per_step, per_reset
+
+
+def interleaved_medians(envs: dict, steps: int, rounds: int, resets: int) -> tuple[dict, dict]:
+    """Median seconds per step and per reset of each env, timed in interleaved rounds."""
+    per_step, per_reset = interleaved_rounds(envs, steps, rounds, resets)
     return ({name: statistics.median(v) for name, v in per_step.items()},
             {name: statistics.median(v) for name, v in per_reset.items()})
 

@@ -118,6 +118,7 @@ class BackgroundDistraction(DistractionTransform):
         self.texture_size = int(texture_size)
         self._video, self._frame, self._direction = -1, -1, 1
         self._pending: list[np.ndarray] | None = None
+        self._pending_unchanging = False
         self._dirty = False
         super().__init__(seed=seed, expose=expose)
 
@@ -174,7 +175,7 @@ class BackgroundDistraction(DistractionTransform):
         model, sky, s = physics.model, self._sky, self.texture_size
         frame = self._frames[self._frame]
         if self._sky_faces is None:
-            faces = [frame]
+            faces = [frame]  # a frame of the cached, read-only clip: shown again and again
         else:
             faces = [cv2.addWeighted(frame, self.blend, face, 1.0 - self.blend, 0.0) for face in self._sky_faces]
         model.tex_width[sky] = s
@@ -182,7 +183,7 @@ class BackgroundDistraction(DistractionTransform):
         adr = int(model.tex_adr[sky])
         for i, face in enumerate(faces):
             model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
-        self._pending = faces
+        self._pending, self._pending_unchanging = faces, self._sky_faces is None
         self._dirty = False
 
     def upload_textures(self, context) -> None:
@@ -192,7 +193,7 @@ class BackgroundDistraction(DistractionTransform):
         :meth:`dcs_torchrl.render._Context.upload_cube`), and the rest when a camera needs it.
         """
         if self._pending is not None:
-            context.upload_cube(self._sky, self._pending)
+            context.upload_cube(self._sky, self._pending, unchanging=self._pending_unchanging)
             self._pending = None
 
     def _state(self) -> np.ndarray:

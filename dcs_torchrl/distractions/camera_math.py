@@ -170,39 +170,55 @@ def sample_pose(rng: np.random.Generator, r: PoseRange) -> Pose:
     return Pose(radius, azimuth, elevation, roll, tuple(velocity.tolist()), roll_velocity)
 
 
-def _clip(x: float, bounds: tuple[float, float]) -> float:
-    return min(max(x, bounds[0]), bounds[1])
-
-
 def walk(pose: Pose, r: PoseRange, noise) -> Pose:
     """Advances the pose by one control step of the velocity random walk.
 
     ``noise`` holds 4 standard normals (x, y, z, roll). The velocity is perturbed,
     clipped to its maximum, added to the Cartesian position, the result clipped to the
     range in spherical coordinates, and the velocity re-derived from the clipped move
-    so it never keeps pushing out of range; likewise for roll. (Plain floats throughout:
-    this runs ``frame_skip`` times per agent step.)
+    so it never keeps pushing out of range; likewise for roll.
     """
-    n0, n1, n2, n3 = (float(x) for x in noise)
-    vx, vy, vz = pose.velocity
-    vx += n0 * r.speed_std
-    vy += n1 * r.speed_std
-    vz += n2 * r.speed_std
-    roll_velocity = _clip(pose.roll_velocity + n3 * r.roll_speed_std, (-r.max_roll_speed, r.max_roll_speed))
-    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if speed > r.max_speed:
-        shrink = r.max_speed / speed
-        vx, vy, vz = vx * shrink, vy * shrink, vz * shrink
-    x, y, z = sphere_to_cart(pose.radius, pose.azimuth, pose.elevation)
-    radius, azimuth, elevation = cart_to_sphere(x + vx, y + vy, z + vz)
-    radius, azimuth, elevation = _clip(radius, r.radius), _clip(azimuth, r.azimuth), _clip(elevation, r.elevation)
-    nx, ny, nz = sphere_to_cart(radius, azimuth, elevation)
-    roll = _clip(pose.roll + roll_velocity, r.roll)
-    return Pose(radius, azimuth, elevation, roll, (nx - x, ny - y, nz - z), roll - pose.roll)
+    return _walk_rows(pose, r, [[float(x) for x in noise]])
 
 
 def walk_many(pose: Pose, r: PoseRange, rng: np.random.Generator, n_steps: int) -> Pose:
     """``n_steps`` control steps of :func:`walk`, drawing the noise in one call."""
-    for noise in rng.standard_normal((n_steps, 4)).tolist():
-        pose = walk(pose, r, noise)
-    return pose
+    return _walk_rows(pose, r, rng.standard_normal((n_steps, 4)).tolist())
+
+
+def _walk_rows(pose: Pose, r: PoseRange, rows: list) -> Pose:
+    """One :func:`walk` step per row of 4 noise floats. Written out in plain floats, one pose
+    made at the end: this runs at every agent step, right after a render has left the caches
+    cold, where each call and object costs several times what it does warm."""
+    radius, azimuth, elevation, roll = pose.radius, pose.azimuth, pose.elevation, pose.roll
+    vx, vy, vz = pose.velocity
+    roll_velocity = pose.roll_velocity
+    r_lo, r_hi = r.radius
+    az_lo, az_hi = r.azimuth
+    el_lo, el_hi = r.elevation
+    roll_lo, roll_hi = r.roll
+    std, max_speed, roll_std, max_roll = r.speed_std, r.max_speed, r.roll_speed_std, r.max_roll_speed
+    sin, cos, atan2, sqrt = math.sin, math.cos, math.atan2, math.sqrt
+    s = sin(elevation)
+    x, y, z = radius * s * cos(azimuth), radius * s * sin(azimuth), radius * cos(elevation)
+    for n0, n1, n2, n3 in rows:
+        vx += n0 * std
+        vy += n1 * std
+        vz += n2 * std
+        roll_velocity = min(max(roll_velocity + n3 * roll_std, -max_roll), max_roll)
+        speed = sqrt(vx * vx + vy * vy + vz * vz)
+        if speed > max_speed:
+            shrink = max_speed / speed
+            vx, vy, vz = vx * shrink, vy * shrink, vz * shrink
+        px, py, pz = x + vx, y + vy, z + vz
+        radius = min(max(sqrt(px * px + py * py + pz * pz), r_lo), r_hi)
+        azimuth = min(max(atan2(py, px), az_lo), az_hi)
+        elevation = min(max(atan2(math.hypot(px, py), pz), el_lo), el_hi)
+        s = sin(elevation)
+        nx, ny, nz = radius * s * cos(azimuth), radius * s * sin(azimuth), radius * cos(elevation)
+        vx, vy, vz = nx - x, ny - y, nz - z
+        x, y, z = nx, ny, nz
+        new_roll = min(max(roll + roll_velocity, roll_lo), roll_hi)
+        roll_velocity = new_roll - roll
+        roll = new_roll
+    return Pose(radius, azimuth, elevation, roll, (vx, vy, vz), roll_velocity)

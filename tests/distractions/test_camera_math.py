@@ -158,3 +158,15 @@ def test_paper_cameras_are_not_turned():
     # every camera of the six paper tasks already faces the front: no change from the reference
     for azimuth in (-math.pi / 2, -1.5808, -1.5608):
         assert cm.frame_turn(azimuth) == 0.0
+
+
+def test_walk_many_is_walk_step_by_step():
+    # walk_many runs the steps in one loop (this runs every agent step): the same floats as one walk per step
+    r = cm.pose_range(R0, AZ0, EL0, 0.3, dynamic=True, upper_quadrant=True)
+    start = cm.sample_pose(np.random.default_rng(1), r)
+    many = cm.walk_many(start, r, np.random.default_rng(2), 50)
+    pose = start
+    for noise in np.random.default_rng(2).standard_normal((50, 4)):
+        pose = cm.walk(pose, r, noise)
+    assert many == pose
+    assert cm.walk_many(start, r, np.random.default_rng(2), 0) == start

@@ -19,7 +19,8 @@ frustum covers (widened to cover texture filtering), each as its two finest mipm
 levels; the rest follows when a camera turns towards it. A medium-benchmark cheetah view
 sends ~6% of the texels of a six-face upload and renders the same pixels (compared
 exactly in ``tests/test_render.py``); see :meth:`_Context.upload_cube` and
-:mod:`dcs_torchrl._skybox`.
+:mod:`dcs_torchrl._skybox`. A video frame, which a bouncing clip shows many times an
+episode, is converted to its RGBA levels once and kept (:class:`_ConvertedFaces`).
 """
 from __future__ import annotations
 

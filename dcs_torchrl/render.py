@@ -332,22 +332,24 @@ def _sub_upload_cubes(jobs: list[tuple[int, list[tuple[int, int, int, list[_Texe
     from OpenGL.raw.GL.VERSION import GL_1_1  # unchecked entry points: ~40% less call overhead
 
     row_length = 0
-    for texture, uploads in jobs:
-        GL_1_1.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
-        for face, x0, y0, levels in uploads:
-            for level, texels in enumerate(levels):
-                image = texels.image
-                row = image.shape[1]
-                if row != row_length:
-                    GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, row)
-                    row_length = row
-                address = image.ctypes.data + 4 * (texels.y * row + texels.x)
-                GL_1_1.glTexSubImage2D(
-                    GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, x0 >> level, y0 >> level,
-                    texels.width, texels.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, ctypes.c_void_p(address),
-                )
-    if row_length:
-        GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, 0)
+    try:
+        for texture, uploads in jobs:
+            GL_1_1.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
+            for face, x0, y0, levels in uploads:
+                for level, texels in enumerate(levels):
+                    image = texels.image
+                    row = image.shape[1]
+                    if row != row_length:
+                        GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, row)
+                        row_length = row
+                    address = image.ctypes.data + 4 * (texels.y * row + texels.x)
+                    GL_1_1.glTexSubImage2D(
+                        GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, x0 >> level, y0 >> level,
+                        texels.width, texels.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, ctypes.c_void_p(address),
+                    )
+    finally:  # MuJoCo's own uploads read rows packed
+        if row_length:
+            GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, 0)
 
 
 _CONTEXTS: "weakref.WeakKeyDictionary[object, _Context]" = weakref.WeakKeyDictionary()

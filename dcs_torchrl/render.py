@@ -95,7 +95,7 @@ class _Context:
         physics.contexts  # creates the GL and MuJoCo contexts, uploads every texture
         self.uploaded = {i: (int(model.tex_width[i]), int(model.tex_height[i])) for i in range(model.ntex)}
         self.skyboxes = {i for i in range(model.ntex) if model.tex_type[i] == mujoco.mjtTexture.mjTEXTURE_SKYBOX}
-        self.limited: set[int] = set()  # textures cut to _SKY_LEVELS mipmap levels in this context
+        self.own_storage: set[int] = set()  # textures given the suite's storage (RGBA8, _SKY_LEVELS levels) here
         self.pending = {}  # the new context was given model.tex_data, which holds every edit
 
     def fit(self, profile: str, width: int, height: int) -> None:
@@ -133,12 +133,12 @@ class _Context:
         resized = self.uploaded.get(tex_id) != size
         # a texture made by _make from model.tex_data has its whole mip chain, whose levels >= 2
         # would keep showing that first frame where a view samples them: replaced at first use
-        if resized or tex_id not in self.limited:
+        if resized or tex_id not in self.own_storage:
             with contexts.gl.make_current() as ctx:
                 if resized:
                     ctx.call(mujoco.mjr_uploadTexture, model.ptr, contexts.mujoco.ptr, tex_id)
                 ctx.call(_rgba_storage, int(contexts.mujoco.ptr.texture[tex_id]), size[0], _SKY_LEVELS)
-            self.limited.add(tex_id)
+            self.own_storage.add(tex_id)
             self.uploaded[tex_id] = size
         # the GPU copy holds none of it yet (new storage) or an earlier frame
         self.pending[tex_id] = _CubeContent(faces, self.converted if unchanging else None)

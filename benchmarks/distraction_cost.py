@@ -94,10 +94,14 @@ def median_interval(values: list[float], resamples: int = 2000, seed: int = 0) -
     return medians[int(0.025 * resamples)], medians[int(0.975 * resamples) - 1]
 
 
+def renderer_of(env) -> render.RenderPixels:
+    """The RenderPixels of a suite env."""
+    return next(t for t in env.transform if isinstance(t, render.RenderPixels))
+
+
 def context_of(env) -> render._Context:
     """The render context of a suite env (after its first reset)."""
-    renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
-    return render._CONTEXTS[locate(renderer, strict=True).physics]
+    return render._CONTEXTS[locate(renderer_of(env), strict=True).physics]
 
 
 class Clock:
@@ -121,7 +125,7 @@ def suite_clocks(env) -> dict[str, Clock]:
     """Clocks on the suite's own per-step work (the distractions' edits, the sky upload) and on the render."""
     context = context_of(env)
     distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
-    renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
+    renderer = renderer_of(env)
     return {"distractions": Clock([(t, "_step") for t in distractions]),
             "upload": Clock([(context, "upload_cube"), (context, "upload_visible")]),
             "render": Clock([(renderer.__dict__["_camera"], "render")])}

@@ -23,10 +23,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402
 import torch  # noqa: E402
-from loop_speed import cpu_model  # noqa: E402  (benchmarks/ is the script's directory)
+from distraction_cost import renderer_of  # noqa: E402  (benchmarks/ is the script's directory)
+from loop_speed import cpu_model  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
-from dcs_torchrl import render  # noqa: E402
 from dcs_torchrl._scene import locate  # noqa: E402
 
 FLAGS = mujoco.mjtRndFlag
@@ -42,7 +42,7 @@ def distracted_poses(domain: str, task: str, benchmark: str, count: int) -> list
     """``(cam_xpos, cam_xmat)`` of the rendered camera after ``count`` seeded resets of a static env
     with only the benchmark's camera distraction (no colours, no videos)."""
     env = dcs.make_env(domain, task, benchmark=benchmark, dynamic=False, seed=0, color_scale=0.0, num_videos=0)
-    physics, camera_id = renderer_of(env)[1:]
+    physics, camera_id = reset_renderer(env)[1:]
     poses = []
     for seed in range(count):
         env.set_seed(seed)
@@ -52,10 +52,10 @@ def distracted_poses(domain: str, task: str, benchmark: str, count: int) -> list
     return poses
 
 
-def renderer_of(env):
-    """The RenderPixels of a suite env, its physics and the camera it renders (after a reset)."""
+def reset_renderer(env):
+    """Resets a suite env; its RenderPixels, physics and the camera it renders."""
     env.reset()
-    renderer = next(t for t in env.transform if isinstance(t, render.RenderPixels))
+    renderer = renderer_of(env)
     scene = locate(renderer, strict=True)
     return renderer, scene.physics, renderer._resolved_camera(scene)
 
@@ -73,7 +73,7 @@ def main():
     torch.set_num_threads(1)
     poses = distracted_poses(args.domain, args.task, args.benchmark, args.poses)
     env = dcs.make_env(args.domain, args.task, seed=0)
-    renderer, physics, camera_id = renderer_of(env)
+    renderer, physics, camera_id = reset_renderer(env)
     camera = renderer.__dict__["_camera"]
     own = (physics.data.cam_xpos[camera_id].copy(), physics.data.cam_xmat[camera_id].copy())
     flags = camera._scene.flags

@@ -117,8 +117,8 @@ class _Context:
         (frames of a cached, read-only video, which a bouncing clip shows many times an
         episode): their RGBA levels are then made once, for whole faces, and kept
         (:class:`_ConvertedFaces`); otherwise only the rectangles sent are converted, at every
-        upload. At its first new content in this context (and at a new size, which
-        ``mjr_uploadTexture`` allocates first) the texture is given new storage: RGBA8, so
+        upload. At its first new content in this context (and at a new size) the texture is
+        given new storage, of that size, keeping MuJoCo's sampling parameters: RGBA8, so
         that RGBA texels are copied as they are (Mesa's llvmpipe converts them to its RGBX
         layout for MuJoCo's RGB textures), and its two finest mipmap levels only
         (``GL_TEXTURE_MAX_LEVEL``), which the suite writes itself: at the sizes a sky is seen
@@ -135,8 +135,6 @@ class _Context:
         # would keep showing that first frame where a view samples them: replaced at first use
         if resized or tex_id not in self.own_storage:
             with contexts.gl.make_current() as ctx:
-                if resized:
-                    ctx.call(mujoco.mjr_uploadTexture, model.ptr, contexts.mujoco.ptr, tex_id)
                 ctx.call(_rgba_storage, int(contexts.mujoco.ptr.texture[tex_id]), size[0], _SKY_LEVELS)
             self.own_storage.add(tex_id)
             self.uploaded[tex_id] = size

@@ -118,7 +118,6 @@ class BackgroundDistraction(DistractionTransform):
         self.texture_size = int(texture_size)
         self._video, self._frame, self._direction = -1, -1, 1
         self._pending: list[np.ndarray] | None = None
-        self._pending_unchanging = False
         self._dirty = False
         super().__init__(seed=seed, expose=expose)
 
@@ -183,7 +182,7 @@ class BackgroundDistraction(DistractionTransform):
         adr = int(model.tex_adr[sky])
         for i, face in enumerate(faces):
             model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
-        self._pending, self._pending_unchanging = faces, self._sky_faces is None
+        self._pending = faces
         self._dirty = False
 
     def upload_textures(self, context) -> None:
@@ -193,7 +192,7 @@ class BackgroundDistraction(DistractionTransform):
         :meth:`dcs_torchrl.render._Context.upload_cube`), and the rest when a camera needs it.
         """
         if self._pending is not None:
-            context.upload_cube(self._sky, self._pending, unchanging=self._pending_unchanging)
+            context.upload_cube(self._sky, self._pending, unchanging=self._sky_faces is None)
             self._pending = None
 
     def _state(self) -> np.ndarray:

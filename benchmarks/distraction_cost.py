@@ -51,6 +51,7 @@ def variants(domain: str, task: str, texture_size: int | None = None) -> dict:
     }
     return {
         "none": lambda: dcs.make_env(domain, task, seed=0),
+        "camera only, static": lambda: dcs.make_env(domain, task, **medium, **only("camera_scale", False)),
         "camera only, dynamic": lambda: dcs.make_env(domain, task, **medium, **only("camera_scale", True)),
         "colour only, dynamic": lambda: dcs.make_env(domain, task, **medium, **only("color_scale", True)),
         "background only, static": lambda: dcs.make_env(domain, task, **medium, **only("num_videos", False)),

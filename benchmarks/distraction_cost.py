@@ -1,6 +1,6 @@
 """What each distraction of the medium dynamic benchmark adds to an agent step (default profile).
 
-    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5] [--upload-steps 500] [--texture-size 128]
+    python benchmarks/distraction_cost.py cheetah run [--steps 150] [--rounds 5] [--upload-steps 500] [--texture-size 128] [--only "medium static" ...]
 
 The medium dynamic env against the undistracted one, and against the same env with only one
 distraction switched on (the others at scale 0), stepped in interleaved rounds like
@@ -165,8 +165,8 @@ def main():
     torch.set_num_threads(1)
     makers = variants(args.domain, args.task, args.texture_size)
     if args.only is not None:
-        keep = {"none", "medium dynamic", *args.only}
-        makers = {name: make for name, make in makers.items() if name in keep or name == coarse_sky(args.texture_size)}
+        keep = {"none", "medium dynamic", *args.only, *([] if args.texture_size is None else [coarse_sky(args.texture_size)])}
+        makers = {name: make for name, make in makers.items() if name in keep}
     envs = {name: make() for name, make in makers.items()}
     if WHOLE_SKY in envs:
         envs[WHOLE_SKY].reset()

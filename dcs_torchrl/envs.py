@@ -37,6 +37,8 @@ class EnvSettings:
     ground_alpha: float | None
     action_repeat: int
     camera_id: int
+    reference_blend: bool
+    texture_size: int
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -56,7 +58,8 @@ def _check_task(domain: str, task: str) -> None:
 #: every field of :class:`EnvSettings` but the task. ``None`` means the preset's / the task's.
 ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvSettings) if f.name not in ("domain", "task"))
 #: The options whose default is not ``None``.
-OPTION_DEFAULTS = MappingProxyType({"benchmark": "none", "dynamic": False, "background_split": "train"})
+OPTION_DEFAULTS = MappingProxyType(
+    {"benchmark": "none", "dynamic": False, "background_split": "train", "reference_blend": False, "texture_size": 256})
 
 
 def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
@@ -86,6 +89,9 @@ def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
     blend = float(pick("background_blend", preset.background_blend))
     shows_videos = videos > 0 and blend > 0
     folder = o.get("background_dir")
+    texture_size = int(o["texture_size"])
+    if texture_size < 1:
+        raise ValueError(f"texture_size must be a positive number of pixels, got {o['texture_size']!r}.")
     return EnvSettings(
         domain=domain,
         task=task,
@@ -101,6 +107,8 @@ def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
         ground_alpha=pick("ground_alpha", presets.ground_alpha(domain) if shows_videos else None),
         action_repeat=repeat,
         camera_id=int(pick("camera_id", presets.default_camera(domain))),
+        reference_blend=bool(o["reference_blend"]),
+        texture_size=texture_size,
     )
 
 
@@ -127,6 +135,7 @@ def make_env(
     render_profile: str = "default",
     pixels_only: bool = True,
     texture_size: int = 256,
+    reference_blend: bool = False,
     device=None,
 ) -> TransformedEnv:
     """A Distracting Control Suite env: dm_control physics, distractions, then one render.
@@ -162,6 +171,9 @@ def make_env(
         pixels_only (bool): drop the state observations (TorchRL's ``ExcludeTransform``
             after the render); ``False`` keeps them next to ``"pixels"``.
         texture_size (int): side of the background texture.
+        reference_blend (bool): blend each episode's video onto the sky as this env last
+            showed it, as the authors' 2021 code does (see :class:`BackgroundDistraction`),
+            instead of onto the original sky as the paper describes. Only matters for β_bg < 1.
         device: TorchRL device of the env.
 
     Examples:
@@ -174,8 +186,12 @@ def make_env(
         raise ValueError(f"unknown render_profile {render_profile!r}; choose one of {sorted(PROFILES)}.")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32):
         raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {seed!r}.")
-    given = locals()
-    s = resolve_settings(domain, task, **{name: given[name] for name in ENV_OPTIONS})
+    s = resolve_settings(
+        domain, task, benchmark=benchmark, dynamic=dynamic, camera_scale=camera_scale, color_scale=color_scale,
+        num_videos=num_videos, background_blend=background_blend, blind=blind, background_split=background_split,
+        background_dir=background_dir, ground_alpha=ground_alpha, action_repeat=action_repeat, camera_id=camera_id,
+        reference_blend=reference_blend, texture_size=texture_size,
+    )
     expose = bool(expose_distractions)
     kwargs = {} if device is None else {"device": device}
     base = DMControlEnv(domain, task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
@@ -184,7 +200,8 @@ def make_env(
         ColorDistraction(s.color_scale, s.dynamic, expose=expose),
         BackgroundDistraction(
             s.background_dir, s.dynamic, num_videos=s.num_videos, blend=s.background_blend,
-            ground_alpha=s.ground_alpha, split=s.background_split, texture_size=texture_size, expose=expose,
+            ground_alpha=s.ground_alpha, split=s.background_split, texture_size=s.texture_size,
+            reference_blend=s.reference_blend, expose=expose,
         ),
         RenderPixels(height, width, s.camera_id, profile=render_profile),
     )

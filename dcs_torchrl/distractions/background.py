@@ -57,7 +57,19 @@ class BackgroundDistraction(DistractionTransform):
     the part of the sky the camera sees: the pixels are those of a whole upload).
 
     With ``blend`` β_bg < 1 each of the six faces shows β_bg · video + (1 - β_bg) · the
-    original face, so β_bg = 0 is the original sky.
+    original face, so β_bg = 0 is the original sky: the paper's blend (section 3.3).
+
+    ``reference_blend=True`` blends as the authors' 2021 code does instead: at each reset
+    it reads the sky back from the model and blends the new video onto it, in float32 with
+    the sum truncated to uint8. Its ``env.reset()`` restores the physics state, not the
+    model, so the sky read back is the last frame the previous episode showed, and the
+    original sky's weight after k episodes of one env is (1 - β_bg)^k: over 100 episodes at
+    β_bg = 0.1 its mean weight is about 0.09, and the agent mostly sees earlier videos. Both
+    exist because the published robustness to β_bg (section 5.1) was measured with that
+    code; ``False`` is what the paper's text describes. The history belongs to this
+    transform (one env): each env of a batch accumulates over its own episodes, and
+    seeding (``env.set_seed``) starts it again from the original sky. At β_bg = 1 the
+    two modes are identical.
 
     Args:
         videos: ``None`` for the embedded default set (a stand-in for DAVIS that needs no
@@ -75,8 +87,10 @@ class BackgroundDistraction(DistractionTransform):
             0.0 for reacher and 0.3 elsewhere (``dcs_torchrl.presets.GROUND_ALPHA``).
         split (str): ``"train"`` or ``"val"``, when ``videos`` is ``None`` or a path.
         texture_size (int): side of the square sky texture the frames are decoded to.
-            256 is indistinguishable from the reference's 800 at 84x84 (DESIGN.md) and
-            keeps 60 videos in memory; raise it for large renders.
+            256 is indistinguishable from the reference's 800 at 84x84 (mean pixel
+            difference below 1) and keeps 60 videos in memory; raise it for large renders.
+        reference_blend (bool): accumulate the blend over episodes as the 2021 code
+            does (above). Defaults to ``False``.
         seed (int, optional), expose (bool): see :class:`DistractionTransform`; the exposed
             state is int64 ``[video index, frame index]``, ``[-1, -1]`` without videos.
 
@@ -106,6 +120,7 @@ class BackgroundDistraction(DistractionTransform):
         ground_alpha: float | None = None,
         split: str = "train",
         texture_size: int = 256,
+        reference_blend: bool = False,
         seed: int | None = None,
         expose: bool = False,
     ):
@@ -116,10 +131,16 @@ class BackgroundDistraction(DistractionTransform):
         if int(texture_size) < 1:
             raise ValueError(f"texture_size must be a positive number of pixels, got {texture_size}.")
         self.texture_size = int(texture_size)
+        self.reference_blend = bool(reference_blend)
         self._video, self._frame, self._direction = -1, -1, 1
         self._pending: list[np.ndarray] | None = None
         self._dirty = False
         super().__init__(seed=seed, expose=expose)
+
+    def reseed(self, seed: int | None) -> None:
+        """Restarts the random stream and, with ``reference_blend``, the sky's history."""
+        super().reseed(seed)
+        self._shown = None  # the faces this env last displayed (reference_blend); None: the original sky
 
     @property
     def active(self) -> bool:
@@ -162,6 +183,9 @@ class BackgroundDistraction(DistractionTransform):
         self._frame = int(rng.integers(len(self._frames)))
         self._direction = 1 if rng.random() < 0.5 else -1
         self._dirty = True
+        if self.reference_blend and self._sky_faces is not None:
+            under = self._sky_faces if self._shown is None else self._shown
+            self._dimmed = [np.float32(1.0 - self.blend) * face.astype(np.float32) for face in under]
 
     def _advance(self, n_steps: int) -> None:
         if self.active and self.dynamic:
@@ -175,6 +199,9 @@ class BackgroundDistraction(DistractionTransform):
         frame = self._frames[self._frame]
         if self._sky_faces is None:
             faces = [frame]  # a frame of the cached, read-only clip: shown again and again
+        elif self.reference_blend:  # the 2021 code's arithmetic: float32, truncated
+            video = np.float32(self.blend) * frame.astype(np.float32)
+            faces = self._shown = [(dimmed + video).astype(np.uint8) for dimmed in self._dimmed]
         else:
             faces = [cv2.addWeighted(frame, self.blend, face, 1.0 - self.blend, 0.0) for face in self._sky_faces]
         model.tex_width[sky] = s
@@ -204,5 +231,5 @@ class BackgroundDistraction(DistractionTransform):
     def __repr__(self) -> str:
         return (
             f"{type(self).__name__}(videos={self.videos!r}, dynamic={self.dynamic}, "
-            f"blend={self.blend}, ground_alpha={self.ground_alpha})"
+            f"blend={self.blend}, ground_alpha={self.ground_alpha}, reference_blend={self.reference_blend})"
         )

@@ -125,7 +125,7 @@ def build_agent(method: str, batch: int):
     with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
         cfg = compose("sac", overrides=recipe_overrides(method, batch, 1, 1))
     torch.manual_seed(0)
-    agent = agent_class("sac")(cfg, (9, 84, 84), Bounded(-1.0, 1.0, shape=(1,)), 8)
+    agent = agent_class("sac")(cfg, (9, 84, 84), Bounded(-1.0, 1.0, shape=(1,)))
     buffer = FrameStackReplayBuffer(2000, 3, (3, 84, 84), (1,), batch_size=batch, min_episode_steps=125)
     steps = 125
     for _ in range(8):
@@ -144,7 +144,7 @@ def measure_update(method: str, batch: int, updates: int) -> dict:
     """The recipe's agent alone: seconds per update on replay samples of random frames."""
     import torch
 
-    from dcs_torchrl.agents import retain_freed_memory
+    from dcs_torchrl.modules import retain_freed_memory
 
     retain_freed_memory()
     agent, buffer = build_agent(method, batch)

@@ -10,7 +10,7 @@ hits both alike. Repeated with MuJoCo's shadows, reflections or skybox switched 
 ``mjRND_*`` flags), to show which part of the render the pose changes. Only the render is clocked
 (dm_control's ``Camera.render``: scene update, ``mjr_render``, ``mjr_readPixels``); no
 distraction runs in the clocked env, so the difference is the render of another view of the same
-scene, which belongs to the benchmark's camera ranges (SPEC §1.1), not to the suite's work.
+scene, which belongs to the benchmark's camera ranges (Stone et al. 2021, Sec. 3.1), not to the suite's work.
 """
 from __future__ import annotations
 

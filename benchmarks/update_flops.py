@@ -105,7 +105,7 @@ def main() -> None:
     parser.add_argument("--updates", type=int, default=6)
     parser.add_argument("--matmul-size", type=int, default=4096)
     args = parser.parse_args()
-    from dcs_torchrl.agents import retain_freed_memory
+    from dcs_torchrl.modules import retain_freed_memory
 
     retain_freed_memory()
     print(f"CPU: {cpu_model()}, {os.cpu_count()} logical cores, torch {torch.__version__}, {torch.get_num_threads()} threads")

@@ -29,9 +29,9 @@ Variants:
   ``/ 255``, out-of-place ReLU, CEM per copy).
 
 Allocators: ``glibc`` (default malloc), ``jemalloc`` (``LD_PRELOAD`` of Debian's libjemalloc2 with
-``MALLOC_CONF=dirty_decay_ms:-1,muzzy_decay_ms:-1``, see DESIGN.md), ``glibc-nommap`` (glibc with
+``MALLOC_CONF=dirty_decay_ms:-1,muzzy_decay_ms:-1``, see docs/performance.md), ``glibc-nommap`` (glibc with
 ``GLIBC_TUNABLES`` that keep freed memory in the heap: no ``mmap`` for large blocks, no trimming),
-``glibc+retain`` (the same set at run time by :func:`dcs_torchrl.agents.retain_freed_memory`).
+``glibc+retain`` (the same set at run time by :func:`dcs_torchrl.modules.retain_freed_memory`).
 """
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ ALLOCATORS = {
     "glibc": {},
     "jemalloc": {"LD_PRELOAD": JEMALLOC, "MALLOC_CONF": "dirty_decay_ms:-1,muzzy_decay_ms:-1"},
     "glibc-nommap": {"GLIBC_TUNABLES": "glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=68719476736"},
-    "glibc+retain": {"DCS_BENCH_RETAIN_FREED_MEMORY": "1"},  # dcs_torchrl.agents.retain_freed_memory()
+    "glibc+retain": {"DCS_BENCH_RETAIN_FREED_MEMORY": "1"},  # dcs_torchrl.modules.retain_freed_memory()
 }
 SAC_VARIANTS = ["reference", "ours", "ours+channels_last", "ours+compile", "ours+compile+channels_last"]
 QTOPT_VARIANTS = ["qtopt reference", "qtopt ours", "qtopt ours+channels_last"]
@@ -239,7 +239,7 @@ class OursSAC:
         from torchrl.data import Bounded
         from torchrl.objectives import SoftUpdate
 
-        from dcs_torchrl.agents import RandomShift, make_critic, make_encoder, make_sac_actor, with_next_keys
+        from dcs_torchrl.modules import RandomShift, make_critic, make_encoder, make_sac_actor, with_next_keys
         from dcs_torchrl.objectives import DrQSACLoss
 
         spec = Bounded(-1.0, 1.0, shape=(ACTION_DIM,))
@@ -273,7 +273,7 @@ class OursQTOpt:
         from torchrl.data import Bounded
         from torchrl.objectives import SoftUpdate
 
-        from dcs_torchrl.agents import RandomShift, make_critic, make_encoder, with_next_keys
+        from dcs_torchrl.modules import RandomShift, make_critic, make_encoder, with_next_keys
         from dcs_torchrl.objectives import QTOptLoss
 
         spec = Bounded(-1.0, 1.0, shape=(ACTION_DIM,))
@@ -361,7 +361,7 @@ def measure(variants, batch_size, updates, rounds, warmup, hidden):
 def child(args):
     warnings.filterwarnings("ignore")
     if os.environ.get("DCS_BENCH_RETAIN_FREED_MEMORY"):
-        from dcs_torchrl.agents import retain_freed_memory
+        from dcs_torchrl.modules import retain_freed_memory
 
         if not retain_freed_memory():
             raise SystemExit("retain_freed_memory() could not be applied")

@@ -23,7 +23,7 @@ symbol                                         used by, and why
 ``Physics._contexts``,                         :mod:`dcs_torchrl.render`: a render context
 ``Physics._free_rendering_contexts``           made by someone else with other settings is
                                                freed before the suite's own is made.
-``torchrl.envs.transforms.utils.               :mod:`dcs_torchrl.agents.augment`: an
+``torchrl.envs.transforms.utils.               :mod:`dcs_torchrl.modules.augment`: an
 _set_missing_tolerance``                       augmentation applied at reset tolerates the
                                                missing ``pixels`` key, as TorchRL's own
                                                transforms do.
@@ -33,6 +33,19 @@ _set_missing_tolerance``                       augmentation applied at reset tol
 ``SACLoss._vmap_qnetworkN0``, ``._alpha``      (averaged over K augmented next observations)
                                                replaces SACLoss's target computation, its one
                                                extension point for the target.
+``SACLoss._alpha_loss``                        :mod:`dcs_torchrl.objectives.sac`: the
+                                               temperature loss of the first copy, as
+                                               ``SACLoss.forward`` computes it.
+``LossModule._reduce_loss``,                   :mod:`dcs_torchrl.objectives.sac` and
+``._maybe_get_priority_weight``                :mod:`~dcs_torchrl.objectives.qtopt`: the
+                                               loss's reduction and prioritised-replay weights,
+                                               as TorchRL's own losses apply them.
+``LossModule._default_value_estimator``        both losses: the value estimator built in
+                                               ``__init__``, so ``state_dict()`` has its keys
+                                               before the first forward.
+``LossModule.                                  :mod:`dcs_torchrl.objectives.qtopt`:
+_prepare_value_estimator_kwargs``              ``make_value_estimator``'s defaults (gamma
+                                               ...), as TorchRL's losses resolve them.
 =============================================  ==============================================
 """
 from __future__ import annotations
@@ -43,8 +56,9 @@ from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_
 from torchrl.objectives.utils import _vmap_func as vmap_func
 
 __all__ = [
-    "PRIVATE_SYMBOLS", "base_set_seed", "container_of", "dm_physics", "free_foreign_render_contexts",
-    "replace_set_seed", "set_missing_tolerance", "vmap_func",
+    "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "dm_physics",
+    "free_foreign_render_contexts", "priority_weight", "reduce_loss", "replace_set_seed", "sac_alpha_loss",
+    "set_missing_tolerance", "value_estimator_kwargs", "vmap_func",
 ]
 
 #: ``(owner, attribute, user)`` of every private symbol above (the test checks each one).
@@ -54,11 +68,16 @@ PRIVATE_SYMBOLS = (
     ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene"),
     ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render"),
     ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render"),
-    ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.agents.augment"),
+    ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.modules.augment"),
     ("torchrl.objectives.utils", "_vmap_func", "dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.SACLoss", "_compute_target_v2", "dcs_torchrl.objectives.sac"),
     ("torchrl.objectives.SACLoss", "_vmap_qnetworkN0", "dcs_torchrl.objectives.sac"),
     ("torchrl.objectives.SACLoss", "_alpha", "dcs_torchrl.objectives.sac"),
+    ("torchrl.objectives.SACLoss", "_alpha_loss", "dcs_torchrl.objectives.sac"),
+    ("torchrl.objectives.LossModule", "_reduce_loss", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
+    ("torchrl.objectives.LossModule", "_maybe_get_priority_weight", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
+    ("torchrl.objectives.LossModule", "_default_value_estimator", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
+    ("torchrl.objectives.LossModule", "_prepare_value_estimator_kwargs", "dcs_torchrl.objectives.qtopt"),
 )
 
 
@@ -87,3 +106,29 @@ def free_foreign_render_contexts(physics) -> None:
     """Frees ``physics``'s render contexts if it has any (made elsewhere, with other settings)."""
     if getattr(physics, "_contexts", None):
         physics._free_rendering_contexts()
+
+
+def reduce_loss(loss_module, loss, *, weights=None):
+    """``loss`` reduced by ``loss_module.reduction``, weighted by ``weights`` (priority weights) if given."""
+    return loss_module._reduce_loss(loss, weights=weights)
+
+
+def priority_weight(loss_module, tensordict):
+    """The importance weights of a prioritised-replay sample in ``tensordict`` (``None`` if there are none)."""
+    return loss_module._maybe_get_priority_weight(tensordict)
+
+
+def build_default_value_estimator(loss_module) -> None:
+    """Builds ``loss_module``'s default value estimator now (TorchRL builds it at first use)."""
+    loss_module._default_value_estimator()
+
+
+def value_estimator_kwargs(loss_module, value_type, **hyperparams):
+    """``make_value_estimator``'s preamble: ``(value_type, hyperparams)`` with TorchRL's defaults,
+    or ``(None, None)`` when TorchRL handled the call itself (an estimator instance or class)."""
+    return loss_module._prepare_value_estimator_kwargs(value_type, **hyperparams)
+
+
+def sac_alpha_loss(sac_loss, log_prob):
+    """``SACLoss``'s temperature loss for ``log_prob`` (unreduced)."""
+    return sac_loss._alpha_loss(log_prob)

@@ -41,9 +41,6 @@ class Scene:
     def before(self) -> list[Transform]:
         return self.transforms[: self.index]
 
-    def after(self) -> list[Transform]:
-        return self.transforms[self.index + 1 :]
-
     @property
     def domain(self) -> str | None:
         return getattr(self.base_env, "env_name", None)

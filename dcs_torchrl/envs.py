@@ -164,7 +164,7 @@ def make_env(
         background_blend (float): β_bg override.
         blind (bool): turn the camera backwards (the ``blind`` preset sets it).
         ground_alpha (float): floor opacity; defaults to the task's when videos are shown.
-        action_repeat (int): frame skip; defaults to the paper's (SPEC §3).
+        action_repeat (int): frame skip; defaults to the paper's (its Table 1).
         camera_id (int): the camera to distract and render; defaults to the suite's.
         height, width (int): image size. Defaults to 84x84.
         render_profile (str): ``"default"`` or ``"fast"`` (see :class:`RenderPixels`).

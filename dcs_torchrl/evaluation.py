@@ -1,11 +1,18 @@
 """Evaluation protocol: N full episodes of the deterministic policy, mean and standard error.
 
-Stone et al. (2021), section 4: "evaluation over 100 episodes ... report mean +- standard error".
+Stone et al. (2021), Sec. 5: results "evaluated for 100 episodes", mean and standard error (docs/paper.md).
 :func:`evaluate` works on a single TorchRL env or a batched one (``SerialEnv``/``ParallelEnv``,
 or any env with a 1-d batch size): every sub-env runs whole episodes, new episodes are only
 started while fewer than ``episodes`` have been started, and every started episode is run to its
 end, so short episodes are not over-represented. Returns are reported in the order the episodes
 were started (sub-env index order within a step).
+
+How episodes spread over sub-envs: with n sub-envs and equal-length episodes (every DM Control
+task: a time limit), sub-env i runs episodes i, i + n, i + 2n, ... one after the other. Where an
+env carries state across episodes — the 2021 code's background blend
+(``make_env(reference_blend=True)``), whose sky accumulates over an env's episodes — a result
+depends on the episodes per env: the recipes' final evaluation runs all of them in one env unless
+``eval.num_workers`` says otherwise, and ``python -m dcs_torchrl.robustness`` runs each point in one env.
 """
 from __future__ import annotations
 

@@ -5,8 +5,8 @@ with an augmentation setting: none (K = M = 0), RAD (one random-shift copy, K = 
 K = M = 2). The recipes (``algo.name``, ``algo.aug``), the experiment grid, the evaluator and the
 report all read this registry. Pure data: importing it imports neither torch nor the agents.
 
->>> METHODS["QT-Opt+RAD"]
-Method(name='QT-Opt+RAD', algo='qtopt', aug='rad', copies=1)
+>>> METHODS["QT-Opt+RAD"], METHODS["QT-Opt+RAD"].copies
+(Method(name='QT-Opt+RAD', algo='qtopt', aug='rad'), 1)
 >>> method_name("sac", "drq"), list(METHODS)[:3]
 ('SAC+DrQ', ['SAC', 'SAC+RAD', 'SAC+DrQ'])
 """
@@ -16,15 +16,30 @@ import importlib
 from dataclasses import dataclass
 from types import MappingProxyType
 
-__all__ = ["ALGORITHMS", "AUGMENTATIONS", "METHODS", "Method", "agent_class", "method", "method_name"]
+__all__ = ["ALGORITHMS", "AUGMENTATIONS", "METHODS", "Method", "agent_class", "augmentation_copies", "method", "method_name"]
 
 #: algo -> (the paper's name, the module and class of its agent).
 ALGORITHMS = MappingProxyType({
     "sac": ("SAC", "dcs_torchrl.algorithms.sac", "SACAgent"),
     "qtopt": ("QT-Opt", "dcs_torchrl.algorithms.qtopt", "QTOptAgent"),
 })
-#: aug -> (the suffix of the paper's name, the augmented copies K = M).
+#: aug -> (the suffix of the paper's name, the augmented copies K = M): the one definition of K = M.
 AUGMENTATIONS = MappingProxyType({"none": ("", 0), "rad": ("+RAD", 1), "drq": ("+DrQ", 2)})
+
+
+def augmentation_copies(aug: str) -> int:
+    """The number of augmented copies K = M of an augmentation setting (``algo.aug``).
+
+    Args:
+        aug (str): ``"none"``, ``"rad"`` or ``"drq"``.
+
+    Examples:
+        >>> augmentation_copies("drq")
+        2
+    """
+    if aug not in AUGMENTATIONS:
+        raise ValueError(f"unknown augmentation {aug!r}: choose one of {list(AUGMENTATIONS)} (algo.aug=...).")
+    return AUGMENTATIONS[aug][1]
 
 
 @dataclass(frozen=True)
@@ -34,13 +49,17 @@ class Method:
     name: str
     algo: str
     aug: str
-    copies: int
+
+    @property
+    def copies(self) -> int:
+        """K = M, the augmented copies of ``aug``."""
+        return augmentation_copies(self.aug)
 
 
 #: The six methods by name, in the paper's row order.
 METHODS = MappingProxyType({
-    ALGORITHMS[algo][0] + suffix: Method(ALGORITHMS[algo][0] + suffix, algo, aug, copies)
-    for algo in ALGORITHMS for aug, (suffix, copies) in AUGMENTATIONS.items()
+    ALGORITHMS[algo][0] + suffix: Method(ALGORITHMS[algo][0] + suffix, algo, aug)
+    for algo in ALGORITHMS for aug, (suffix, _) in AUGMENTATIONS.items()
 })
 
 

@@ -1,4 +1,4 @@
-"""The paper's settings as data: benchmarks (SPEC §2), tasks and action repeats (SPEC §3).
+"""The paper's settings as data: benchmarks (Stone et al. 2021, Sec. 5.3), tasks and action repeats (its Table 1).
 
 Nothing here runs code: :func:`dcs_torchrl.make_env` reads these tables, and every
 entry can be overridden there keyword by keyword.
@@ -11,7 +11,7 @@ from types import MappingProxyType
 
 @dataclass(frozen=True)
 class Benchmark:
-    """One row of the paper's benchmark table (SPEC §2).
+    """One benchmark of the paper (Sec. 5.3; the table in docs/paper.md).
 
     Attributes:
         camera_scale: β_cam, the camera distraction scale in [0, 1].
@@ -41,7 +41,7 @@ BENCHMARKS: MappingProxyType[str, Benchmark] = MappingProxyType(
     }
 )
 
-# The PlaNet benchmark tasks with the paper's action repeats (SPEC §3).
+# The PlaNet benchmark tasks with the paper's action repeats (its Table 1).
 TASKS: MappingProxyType[tuple[str, str], int] = MappingProxyType(
     {
         ("ball_in_cup", "catch"): 4,
@@ -56,7 +56,7 @@ TASKS: MappingProxyType[tuple[str, str], int] = MappingProxyType(
 # Action repeat for a domain outside the paper's six tasks (DrQ/PlaNet convention).
 DEFAULT_ACTION_REPEAT = 4
 
-# Ground-plane (material "grid") opacity when background videos are shown (SPEC §1.3).
+# Ground-plane (material "grid") opacity when background videos are shown (the paper's Sec. 3.3).
 GROUND_ALPHA: MappingProxyType[str, float] = MappingProxyType(
     {"cheetah": 1.0, "walker": 1.0, "reacher": 0.0}
 )

@@ -2,6 +2,10 @@
 
     python -m dcs_torchrl.pretrained <finished run directory> <out directory>
 
+The agents the project ships (``recipes/pretrained/<name>/`` in the clone, installed inside the
+package by a wheel) load by name: ``load_pretrained("sac_rad_cartpole_swingup")``;
+:func:`shipped_agents` lists them.
+
 An exported agent is a directory with the run's ``results.json`` (its config: networks, pixels,
 training env, seed, frames) and one checkpoint, ``checkpoints/checkpoint_<frames>.pt`` with its
 SHA-256 file, holding ``{"policy": <state dict of the acting policy>}``: the encoder and the
@@ -23,7 +27,33 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Pretrained", "export_policy", "load_policy_state", "load_pretrained"]
+__all__ = ["Pretrained", "agent_directory", "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
+
+_PACKAGE = Path(__file__).resolve().parent
+# Where the shipped agents are: inside an installed wheel (pyproject.toml maps recipes/pretrained
+# there), or in the clone an editable install runs from.
+_SHIPPED_PLACES = (_PACKAGE / "shipped_agents", _PACKAGE.parent / "recipes" / "pretrained")
+
+
+def shipped_agents() -> dict[str, Path]:
+    """The agents this project ships, by name (``{"sac_rad_cartpole_swingup": <its directory>}``)."""
+    for place in _SHIPPED_PLACES:
+        if place.is_dir():
+            return {p.name: p for p in sorted(place.iterdir()) if (p / "results.json").is_file()}
+    return {}
+
+
+def agent_directory(agent: str | os.PathLike) -> Path:
+    """The directory of ``agent``: an existing path (an exported agent or a finished run), else
+    the name of a shipped agent (:func:`shipped_agents`)."""
+    path = Path(agent)
+    if path.exists():
+        return path
+    shipped = shipped_agents()
+    if str(agent) in shipped:
+        return shipped[str(agent)]
+    raise FileNotFoundError(f"{str(agent)!r} is neither a directory nor a shipped agent: pass a finished run or an "
+                            f"exported agent's directory, or one of {sorted(shipped)}.")
 
 
 def _results(run_dir: Path) -> dict:
@@ -46,8 +76,7 @@ def _build_agent(results: dict, device: str = "cpu"):
     env = pixel_env(settings, **pixel_options(cfg.pixels))  # the specs the networks are built from
     try:
         spec = env.action_spec
-        agent = agent_class(cfg.algo.name)(cfg, tuple(env.observation_spec["pixels"].shape[-3:]), spec,
-                                                settings.action_repeat)
+        agent = agent_class(cfg.algo.name)(cfg, tuple(env.observation_spec["pixels"].shape[-3:]), spec)
     finally:
         env.close()
     return agent, cfg
@@ -98,6 +127,35 @@ class Pretrained:
     results: dict
     _cfg: object
 
+    @property
+    def eval_seed(self) -> int:
+        """The seed of the training run's final evaluation (its run seed + ``EVAL_SEED_OFFSET``)."""
+        from dcs_torchrl.training.loop import EVAL_SEED_OFFSET
+
+        return int(self._cfg.seed) + EVAL_SEED_OFFSET
+
+    def evaluate(self, episodes: int, *, workers: int = 1, **settings):
+        """The recipes' final evaluation of this agent in an env of make_env ``settings``.
+
+        ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
+        seeds of the training run's final evaluation, so that no settings reproduce it; with
+        ``workers`` > 1 the episodes are spread over that many ``ParallelEnv`` workers (other
+        seeds per worker: other episodes). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
+        """
+        from dcs_torchrl.evaluation import evaluate
+        from dcs_torchrl.training.envs import close_env, env_options, env_settings, make_pixel_env, pixel_options
+
+        cfg = self._cfg
+        resolved = env_settings(cfg.env.domain, cfg.env.task, {**env_options(cfg.env), **settings})
+        if workers > 1:
+            env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
+        else:  # in this process: no worker to start
+            env = self.make_env(seed=self.eval_seed, **settings)
+        try:
+            return evaluate(env, self.policy, episodes, seed=self.eval_seed)
+        finally:
+            close_env(env)
+
     def make_env(self, *, seed: int | None = None, **settings):
         """A suite env on the agent's task with its pixel handling; ``settings`` are make_env's
         distraction settings (``benchmark``, ``dynamic``, ``camera_scale``, ``color_scale``,
@@ -110,18 +168,24 @@ class Pretrained:
         return pixel_env(resolved, seed=seed, **pixel_options(cfg.pixels))
 
 
-def load_pretrained(path: str | os.PathLike, device: str = "cpu") -> Pretrained:
-    """Loads an exported agent (or a finished run's final checkpoint) as a TorchRL policy."""
+def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False) -> Pretrained:
+    """Loads an exported agent, a finished run's newest checkpoint or a shipped agent by name
+    (:func:`agent_directory`) as a TorchRL policy; ``final=True`` refuses a checkpoint that is
+    not the run's last (``results.json``'s frames)."""
     from dcs_torchrl.training.checkpoint import load_latest
+    from dcs_torchrl.training.loop import acting_on
 
-    path = Path(path)
+    path = agent_directory(agent)
     results = _results(path)
     loaded = load_latest(path / "checkpoints")
     if loaded is None:
         raise FileNotFoundError(f"{path}/checkpoints holds no checkpoint that verifies.")
-    agent, cfg = _build_agent(results, device)
-    load_policy_state(agent, loaded[1])
-    return Pretrained(agent.policy, results, cfg)
+    if final and loaded[0] != results["steps"]:
+        raise RuntimeError(f"{path}: the newest checkpoint ({loaded[0]} frames) is not the final one "
+                           f"({results['steps']} frames, results.json).")
+    built, cfg = _build_agent(results, device)
+    load_policy_state(built, loaded[1])
+    return Pretrained(acting_on(built.policy, device), results, cfg)
 
 
 def main(argv=None) -> None:

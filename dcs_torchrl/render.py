@@ -1,7 +1,7 @@
 """RenderPixels: render the (distracted) scene once per agent step, after every edit.
 
 The render context of a physics is created by the suite, with the settings of a render
-*profile* (DESIGN.md, "where the render time goes"):
+*profile* (docs/performance.md, "Where the render time goes"):
 
 ========== ================================ ===============================================
 profile    settings                         versus ``physics.render`` of the same scene

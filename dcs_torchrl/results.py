@@ -26,7 +26,7 @@ from typing import Optional
 
 from dcs_torchrl.methods import method_name
 
-__all__ = ["JSON_TYPES", "RESULTS_FILE", "RunResults", "SCHEMA"]
+__all__ = ["JSON_TYPES", "RESULTS_FILE", "RunResults", "SCHEMA", "with_videos_version"]
 
 RESULTS_FILE = "results.json"
 SCHEMA = 1
@@ -43,7 +43,9 @@ class RunResults:
         domain, task, seed: what was trained.
         steps: frames trained (counting action repeat).
         wall_time: seconds.
-        train_env, eval_env: the resolved env settings (``EnvSettings.as_dict()``).
+        train_env, eval_env: the resolved env settings (``EnvSettings.as_dict()``), plus
+            ``embedded_videos``, the version of the embedded stand-in videos
+            (:data:`dcs_torchrl.videos.EMBEDDED_VERSION`) where the env shows them.
         sweep: what the run varies in its experiment (``axis``, ``value``, ``dynamic``[, ``eval_split``]).
         eval: the final deterministic evaluation (``EvalResult.to_dict()``).
         config: the run's full resolved config.
@@ -73,12 +75,28 @@ class RunResults:
         return cls(
             schema=SCHEMA, experiment=experiment, method=method_name(algo, aug), algo=algo, aug=aug,
             domain=config["env"]["domain"], task=config["env"]["task"], seed=int(config["seed"]), steps=int(steps),
-            wall_time=float(wall_time), train_env=dict(train_env), eval_env=dict(eval_env),
+            wall_time=float(wall_time), train_env=with_videos_version(train_env), eval_env=with_videos_version(eval_env),
             sweep=None if sweep is None else dict(sweep), eval=dict(eval), config=dict(config),
         )
 
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+def with_videos_version(env: Mapping) -> dict:
+    """``env`` (resolved settings) with the embedded videos' version if it shows them.
+
+    >>> with_videos_version({"num_videos": 8, "background_blend": 1.0, "background_dir": None})["embedded_videos"]
+    2
+    >>> "embedded_videos" in with_videos_version({"num_videos": 0, "background_blend": 1.0, "background_dir": None})
+    False
+    """
+    from dcs_torchrl.videos.embedded import EMBEDDED_VERSION
+
+    env = dict(env)
+    if (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) > 0 and not env.get("background_dir"):
+        env.setdefault("embedded_videos", EMBEDDED_VERSION)
+    return env
 
 
 def _json_types(annotation) -> tuple:

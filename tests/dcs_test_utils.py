@@ -1,7 +1,7 @@
 """Helpers shared by the tests: the paper's tasks and small generated videos."""
 import numpy as np
 
-# The paper's six tasks (SPEC §3).
+# The paper's six tasks (its Table 1).
 PAPER_TASKS = [
     ("ball_in_cup", "catch"),
     ("cartpole", "swingup"),
@@ -39,3 +39,26 @@ def physics_of(env):
 
     base = env.base_env if isinstance(env, TransformedEnv) else env
     return base._env.physics
+
+
+def distraction_streams(env) -> dict[str, tuple[int, ...]]:
+    """The next numbers each distraction of a suite env (``make_env``, ``pixel_env``) will draw, by
+    type: read from copies of their generators, the env's own streams left as they are."""
+    import copy
+
+    from torchrl.envs import Compose
+
+    from dcs_torchrl.distractions.base import DistractionTransform
+
+    def flat(transform):
+        return [t for child in transform.transforms for t in flat(child)] if isinstance(transform, Compose) else [transform]
+
+    return {type(t).__name__: tuple(copy.deepcopy(t._rng).integers(2**62, size=4).tolist())
+            for t in flat(env.transform) if isinstance(t, DistractionTransform)}
+
+
+def shared_streams(streams: dict) -> list[tuple]:
+    """The pairs of names in ``streams`` (name -> numbers drawn) whose numbers are the same."""
+    import itertools
+
+    return [(a, b) for a, b in itertools.combinations(streams, 2) if streams[a] == streams[b]]

@@ -6,7 +6,7 @@ import torch
 from tensordict.nn import TensorDictSequential
 from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, SerialEnv, TransformedEnv
 
-from dcs_torchrl.agents import make_encoder, make_sac_actor
+from dcs_torchrl.modules import make_encoder, make_sac_actor
 from dcs_torchrl.evaluation import EvalResult, evaluate
 
 EPISODE_STEPS = 1000 // 8  # cartpole's 1000-step time limit at action repeat 8

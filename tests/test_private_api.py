@@ -3,15 +3,20 @@
 An upgrade that removes one fails here, with the symbol and the module that needs it named,
 instead of deep inside a rollout or an update.
 """
+import ast
 import importlib
+from pathlib import Path
 
 import pytest
 import torch
+from dm_control.mujoco import Physics
 from torchrl.data import Bounded
+from torchrl.envs import DMControlEnv, EnvBase, Transform, TransformedEnv
+from torchrl.objectives import LossModule, SACLoss
 
 import dcs_torchrl as dcs
 from dcs_torchrl import _private_api
-from dcs_torchrl.agents import make_critic, make_encoder, make_sac_actor
+from dcs_torchrl.modules import make_critic, make_encoder, make_sac_actor
 from dcs_torchrl.objectives import DrQSACLoss
 
 
@@ -69,3 +74,30 @@ def test_the_wrappers_act_on_the_live_objects(live_objects):
     env_base.set_seed(3)
     assert calls == [3]
     _private_api.replace_set_seed(env_base, original)
+
+
+# The TorchRL / dm_control classes the package subclasses or reaches into.
+OWNERS = (LossModule, SACLoss, Transform, EnvBase, TransformedEnv, DMControlEnv, Physics)
+# Protected hooks TorchRL documents for subclasses to call (its Transform docs' own examples).
+DOCUMENTED_HOOKS = {"_call"}
+
+
+def test_every_private_symbol_the_package_reads_is_listed():
+    """A private TorchRL / dm_control attribute read outside _private_api.py (and not one the package
+    defines itself, e.g. an override) must be in PRIVATE_SYMBOLS, so that the test above checks it."""
+    package = Path(dcs.__file__).parent
+    defined, read = set(), {}
+    for path in sorted(package.rglob("*.py")):
+        if path.name == "_private_api.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                defined.add(node.name)
+            elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+                defined.add(node.attr)
+            elif isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+                read.setdefault(node.attr, f"{path.relative_to(package.parent)}:{node.lineno}")
+    listed = {attribute for _, attribute, _ in _private_api.PRIVATE_SYMBOLS} | DOCUMENTED_HOOKS
+    unlisted = {name: where for name, where in read.items()
+                if name not in defined | listed and any(hasattr(owner, name) for owner in OWNERS)}
+    assert unlisted == {}, "route these through dcs_torchrl/_private_api.py (and list them in PRIVATE_SYMBOLS)"

@@ -15,8 +15,10 @@ from __future__ import annotations
 from omegaconf import DictConfig
 from tensordict.nn import TensorDictSequential
 
+from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.objectives import CEMActor, QTOptLoss
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
+from dcs_torchrl.training.envs import env_options
 
 __all__ = ["QTOptAgent"]
 
@@ -24,8 +26,9 @@ __all__ = ["QTOptAgent"]
 class QTOptAgent(LossAgent):
     """QT-Opt's update: the Q-function every step, its targets every second step."""
 
-    def __init__(self, cfg: DictConfig, observation_shape: tuple, action_spec, action_repeat: int):
+    def __init__(self, cfg: DictConfig, observation_shape: tuple, action_spec):
         algo = cfg.algo
+        action_repeat = resolve_settings(cfg.env.domain, cfg.env.task, **env_options(cfg.env)).action_repeat
         encoder, critics, augmentation, copies = pixel_networks(cfg, observation_shape, action_spec)
         cem = {"cem_iterations": algo.cem_iterations, "cem_samples": algo.cem_samples, "cem_elites": algo.cem_elites}
         loss = QTOptLoss(

@@ -13,7 +13,7 @@ from __future__ import annotations
 from omegaconf import DictConfig
 from tensordict.nn import TensorDictSequential
 
-from dcs_torchrl.agents import make_sac_actor
+from dcs_torchrl.modules import make_sac_actor
 from dcs_torchrl.objectives import DrQSACLoss
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
 
@@ -23,7 +23,7 @@ __all__ = ["SACAgent"]
 class SACAgent(LossAgent):
     """DrQ's SAC update: critic every step; actor, temperature and targets every second step."""
 
-    def __init__(self, cfg: DictConfig, observation_shape: tuple, action_spec, action_repeat: int):
+    def __init__(self, cfg: DictConfig, observation_shape: tuple, action_spec):
         algo, net = cfg.algo, cfg.network
         encoder, critics, augmentation, copies = pixel_networks(cfg, observation_shape, action_spec)
         actor = make_sac_actor(action_spec, encoder.feature_dim, hidden_dim=net.hidden_dim, hidden_depth=net.hidden_depth)

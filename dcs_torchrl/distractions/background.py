@@ -1,4 +1,4 @@
-"""BackgroundDistraction: video frames on the skybox, a see-through floor (SPEC §1.3)."""
+"""BackgroundDistraction: video frames on the skybox, a see-through floor (Stone et al. 2021, Sec. 3.3)."""
 from __future__ import annotations
 
 import os
@@ -45,7 +45,7 @@ def bounce(frame: int, direction: int, length: int, n_steps: int) -> tuple[int, 
 
 
 class BackgroundDistraction(DistractionTransform):
-    """Projects background videos onto the skybox and makes the floor see-through (SPEC §1.3).
+    """Projects background videos onto the skybox and makes the floor see-through (Stone et al. 2021, Sec. 3.3).
 
     At every reset one of the first ``num_videos`` videos and one frame of it are drawn
     uniformly. Static: that frame stays for the episode. Dynamic: the video plays one

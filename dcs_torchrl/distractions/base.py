@@ -31,7 +31,7 @@ def check_scale(name: str, value: float) -> float:
     """Returns ``value`` as a float if it lies in [0, 1], else raises a ValueError naming ``name``."""
     value = float(value)
     if not 0.0 <= value <= 1.0:
-        raise ValueError(f"{name} must be in [0, 1] (SPEC §1), got {value}.")
+        raise ValueError(f"{name} must be in [0, 1] (Stone et al. 2021, Sec. 3), got {value}.")
     return value
 
 

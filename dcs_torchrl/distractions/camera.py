@@ -1,4 +1,4 @@
-"""CameraDistraction: random camera poses around the task's camera (SPEC §1.1)."""
+"""CameraDistraction: random camera poses around the task's camera (Stone et al. 2021, Sec. 3.1)."""
 from __future__ import annotations
 
 import math
@@ -18,7 +18,7 @@ _OVERHEAD_ELEVATION = math.pi / 8
 
 
 class CameraDistraction(DistractionTransform):
-    """Moves the rendering camera on a sphere around its focus, static or dynamic (SPEC §1.1).
+    """Moves the rendering camera on a sphere around its focus, static or dynamic (Stone et al. 2021, Sec. 3.1; docs/paper.md).
 
     The pose ``(azimuth, elevation, radius, roll)`` is sampled uniformly at every reset
     within ±πβ/2 (angles and roll) and [r0(1-β/2), r0(1+3β/2)] (radius) of the task's

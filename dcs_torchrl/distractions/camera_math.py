@@ -1,4 +1,4 @@
-"""Camera-pose distraction math (SPEC §1.1), free of MuJoCo so it can be tested alone.
+"""Camera-pose distraction math (Stone et al. 2021, Sec. 3.1; docs/paper.md), free of MuJoCo so it can be tested alone.
 
 Conventions (those of the authors' 2021 code, which define the published numbers):
 
@@ -45,16 +45,11 @@ def rotation_z(angle: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def rotation_x(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
 def look_at_upright(target, position, roll: float = 0.0) -> np.ndarray:
     """Camera rotation (columns = camera axes in world) looking at ``target``, then rolled by ``roll``.
 
     Before the roll the camera's x axis stays horizontal: the camera is yawed about the world
-    z axis and pitched about its own x axis (``rotation_z(-yaw) @ rotation_x(pitch) @
+    z axis and pitched about its own x axis (``rotation_z(-yaw) @ R_x(pitch) @
     rotation_z(roll)``, written out: this runs at every agent step). Unstable right above or
     below the target, which the frontal-quadrant limit keeps the camera away from.
     """
@@ -64,7 +59,7 @@ def look_at_upright(target, position, roll: float = 0.0) -> np.ndarray:
     c, s = math.cos(yaw), -math.sin(yaw)
     cp, sp = math.cos(pitch), math.sin(pitch)
     cr, sr = math.cos(roll), math.sin(roll)
-    # columns of rotation_z(-yaw) @ rotation_x(pitch): x = (c, s, 0), y = (-s cp, c cp, sp), z = (s sp, -c sp, cp)
+    # columns of rotation_z(-yaw) @ R_x(pitch) (R_x: the rotation about x): x = (c, s, 0), y = (-s cp, c cp, sp), z = (s sp, -c sp, cp)
     yx, yy, yz = -s * cp, c * cp, sp
     return np.array([
         [c * cr + yx * sr, yx * cr - c * sr, s * sp],
@@ -96,7 +91,7 @@ def look_at_shortest(target: np.ndarray, position: np.ndarray, roll: float = 0.0
 
 @dataclass(frozen=True)
 class PoseRange:
-    """The camera's allowed poses and speeds for one episode (SPEC §1.1)."""
+    """The camera's allowed poses and speeds for one episode (the paper's Sec. 3.1)."""
 
     radius: tuple[float, float]
     azimuth: tuple[float, float]
@@ -112,7 +107,7 @@ class PoseRange:
 def pose_range(
     radius0: float, azimuth0: float, elevation0: float, scale: float, dynamic: bool, upper_quadrant: bool
 ) -> PoseRange:
-    """The pose range about an original pose for scale β (SPEC §1.1, with the *ref* choices).
+    """The pose range about an original pose for scale β (the paper's Sec. 3.1, with the 2021 code's choices: docs/paper.md).
 
     Angles within ±πβ/2 of the original (clipped to the upper frontal quadrant when
     ``upper_quadrant``), roll within ±πβ/2, radius in [r0(1 - β/2), r0(1 + 3β/2)];

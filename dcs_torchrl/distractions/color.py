@@ -1,4 +1,4 @@
-"""ColorDistraction: random colours for every material of the scene (SPEC §1.2)."""
+"""ColorDistraction: random colours for every material of the scene (Stone et al. 2021, Sec. 3.2)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,11 +6,11 @@ import numpy as np
 from dcs_torchrl._scene import Scene, originals
 from dcs_torchrl.distractions.base import DistractionTransform, check_scale
 
-_WALK_STD = 0.03  # σ of the dynamic random walk per step, times β (SPEC §1.2)
+_WALK_STD = 0.03  # σ of the dynamic random walk per step, times β (the paper's Sec. 3.2)
 
 
 class ColorDistraction(DistractionTransform):
-    """Shifts the RGB of every MuJoCo material, static or dynamic (SPEC §1.2).
+    """Shifts the RGB of every MuJoCo material, static or dynamic (Stone et al. 2021, Sec. 3.2; docs/paper.md).
 
     At each reset every channel x of every material (``model.mat_rgba``) is drawn from
     U(x₀ - β, x₀ + β) ∩ [0, 1] around its original value x₀. In the dynamic setting it

@@ -1,4 +1,4 @@
-"""The paper's experiments (SPEC §5) as Hydra multiruns: grids, jobs, status, evaluation-only runs.
+"""The paper's experiments (Stone et al. 2021, Sec. 5) as Hydra multiruns: grids, jobs, status, evaluation-only runs.
 
 The experiments are configs (``recipes/experiments/conf``); this package expands them into runs
 (:mod:`~.grid`), runs one of them per job (:mod:`~.launch`, through Hydra's submitit launcher)

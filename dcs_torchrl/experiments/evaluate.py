@@ -64,7 +64,8 @@ def evaluate_checkpoint(
     """Evaluates the final checkpoint of ``train_dir`` once per ``(directory, evaluation)``.
 
     Args:
-        train_dir: a finished training run (``results.json`` and its checkpoints).
+        train_dir: a finished training run (``results.json`` and its checkpoints), an exported
+            agent, or a shipped agent's name (:func:`dcs_torchrl.pretrained.shipped_agents`).
         targets: where each evaluation writes, and what it evaluates.
         settings: ``eval.episodes``, ``eval.num_workers``, ``device`` overriding the trained run's.
         threads: torch threads (``None``: torch's default).
@@ -74,13 +75,11 @@ def evaluate_checkpoint(
     """
     import torch
 
-    from dcs_torchrl.training import RunDirectory, load_latest, make_pixel_env, pixel_env
-    from dcs_torchrl.training.envs import close_env, env_options, env_settings, pixel_options
-    from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, acting_on
-    from dcs_torchrl.evaluation import evaluate
-    from dcs_torchrl.pretrained import load_policy_state
+    from dcs_torchrl.pretrained import agent_directory, load_pretrained
+    from dcs_torchrl.training import RunDirectory
+    from dcs_torchrl.training.envs import env_options, env_settings
 
-    train_dir = Path(train_dir)
+    train_dir = agent_directory(train_dir)  # a run, an exported agent, or a shipped agent's name
     trained = _trained_results(train_dir)
     cfg = OmegaConf.create(trained["config"])
     settings = dict(settings or {})
@@ -88,8 +87,6 @@ def evaluate_checkpoint(
     workers = int(settings.get("eval.num_workers", cfg.eval.num_workers))
     device = str(settings.get("device", cfg.device))
     train_options = env_options(cfg.env)
-    pixels = pixel_options(cfg.pixels)
-    seed = cfg.seed + EVAL_SEED_OFFSET
 
     results: list[dict | None] = []
     todo = []
@@ -108,32 +105,16 @@ def evaluate_checkpoint(
 
     if threads is not None:
         torch.set_num_threads(threads)
-    loaded = load_latest(train_dir / "checkpoints")
-    if loaded is None or loaded[0] != trained["steps"]:
-        raise RuntimeError(f"{train_dir}: the newest checkpoint ({loaded and loaded[0]} frames) is not the final one "
-                           f"({trained['steps']} frames, results.json).")
-    agent = None
+    agent = load_pretrained(train_dir, device, final=True)  # a training checkpoint or an exported agent
     for index, run, evaluation, eval_settings in todo:
         start = time.time()
-        if workers > 1:
-            env = make_pixel_env(eval_settings, num_workers=workers, seed=seed, **pixels)
-        else:  # in this process: no worker to start
-            env = pixel_env(eval_settings, seed=seed, **pixels)
-        if agent is None:
-            spec = env.action_spec[0] if env.batch_size else env.action_spec
-            agent = agent_class(cfg.algo.name)(OmegaConf.merge(cfg, {"device": device}),
-                                                    tuple(env.observation_spec["pixels"].shape[-3:]), spec,
-                                                    eval_settings.action_repeat)
-            load_policy_state(agent, loaded[1])  # a training checkpoint or an exported agent
-            policy = acting_on(agent.policy, device)
-        result = evaluate(env, policy, episodes, seed=seed)
-        close_env(env)
+        result = agent.evaluate(episodes, workers=workers, **evaluation.eval_env)
         config = OmegaConf.to_container(cfg)
         config.update(
             experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,
             eval_env={**config["eval_env"], **evaluation.eval_env},
             eval={**config["eval"], "episodes": episodes, "num_workers": workers},
-            evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": loaded[0]},
+            evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": trained["steps"]},
         )
         results[index] = RunResults.from_config(
             config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=time.time() - start,

@@ -168,7 +168,7 @@ def _entry_runs(entry: Mapping, name: str, budget: Mapping, axes: Mapping, unsee
                     # intensity 0 is the `none` run, evaluated under this point's settings, at its place
                     evaluations = [Evaluation(str(place), label, env, point.sweep())] if undistracted else []
                     for spec in entry.get("evaluate", ()):
-                        if spec.get("unseen"):  # the same model on the held-out videos (SPEC §5.2)
+                        if spec.get("unseen"):  # the same model on the held-out videos (the paper's Sec. 5.2)
                             evaluations.append(Evaluation(str(place / "unseen"), spec.get("experiment", label),
                                                           {**env, **unseen}, point.sweep("val")))
                             continue

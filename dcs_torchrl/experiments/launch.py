@@ -28,6 +28,7 @@ from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from dcs_torchrl.experiments.grid import Run, expand, method_parts, override_value, select
+from dcs_torchrl.report.experiments import SWEEP_AXES
 from dcs_torchrl.training.rundir import finished_results, flatten, write_json_atomic
 
 __all__ = ["StatusCallback", "check_backgrounds", "grid_runs", "grid_status", "recipe_command", "run_job", "status_text"]
@@ -71,6 +72,9 @@ def _register_resolver() -> None:
         return ",".join(run.id for run in grid_runs(_root_))
 
     OmegaConf.register_new_resolver("dcs_runs", run_ids, replace=True)
+    OmegaConf.register_new_resolver(
+        "dcs_axes", lambda: OmegaConf.create({axis: spec.config() for axis, spec in SWEEP_AXES.items()}), replace=True
+    )
 
 
 _register_resolver()

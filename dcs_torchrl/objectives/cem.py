@@ -19,7 +19,7 @@ from tensordict.utils import NestedKey
 from torchrl.data.tensor_specs import TensorSpec
 from torchrl.envs.utils import ExplorationType, exploration_type
 
-from dcs_torchrl.agents.networks import action_bounds
+from dcs_torchrl.modules.networks import action_bounds
 
 __all__ = ["CEMActor", "cem_maximize"]
 
@@ -123,7 +123,7 @@ class CEMActor(TensorDictModuleBase):
         >>> import torch
         >>> from tensordict import TensorDict
         >>> from torchrl.data import Bounded
-        >>> from dcs_torchrl.agents import make_critic
+        >>> from dcs_torchrl.modules import make_critic
         >>> spec = Bounded(-1.0, 1.0, shape=(2,))
         >>> actor = CEMActor(make_critic(spec, 5, hidden_dim=16), action_spec=spec)
         >>> actor(TensorDict({"embedding": torch.zeros(3, 5)}, [3]))["action"].shape

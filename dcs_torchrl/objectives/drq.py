@@ -24,7 +24,7 @@ from tensordict.nn import TensorDictModule
 from tensordict.utils import NestedKey
 from torchrl.envs.transforms import Transform
 
-from dcs_torchrl.agents.augment import with_next_keys
+from dcs_torchrl.modules.augment import with_next_keys
 
 __all__ = ["DrQEncoding", "augmented_copies"]
 
@@ -51,7 +51,7 @@ def augmented_copies(
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
-        >>> from dcs_torchrl.agents import RandomShift
+        >>> from dcs_torchrl.modules import RandomShift
         >>> data = TensorDict({"pixels": torch.zeros(8, 9, 84, 84, dtype=torch.uint8)}, [8])
         >>> augmented_copies(data, RandomShift(4), 2)["pixels"].shape
         torch.Size([2, 8, 9, 84, 84])

@@ -15,8 +15,8 @@ from torchrl.envs.transforms import Transform
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import dispatch_value_estimator, ValueEstimators
 
-from dcs_torchrl._private_api import vmap_func
-from dcs_torchrl.agents.networks import action_bounds
+from dcs_torchrl._private_api import build_default_value_estimator, priority_weight, reduce_loss, value_estimator_kwargs, vmap_func
+from dcs_torchrl.modules.networks import action_bounds
 from dcs_torchrl.objectives.cem import cem_maximize
 from dcs_torchrl.objectives.drq import DrQEncoding
 
@@ -28,8 +28,8 @@ LOSS_FUNCTIONS = ("cross_entropy", "l2")
 def averaged_cross_entropy(logits: Tensor, target: Tensor, dim: int) -> tuple[Tensor, Tensor]:
     r"""Binary cross-entropy of ``target`` against the mean probability over ``dim``.
 
-    :math:`ar p = rac{1}{M}\sum_m \sigma(\ell_m)` and
-    :math:`-[t \log ar p + (1 - t) \log (1 - ar p)]`, with both logs computed as
+    :math:`\bar p = \frac{1}{M}\sum_m \sigma(\ell_m)` and
+    :math:`-[t \log \bar p + (1 - t) \log (1 - \bar p)]`, with both logs computed as
     ``logsumexp(logsigmoid(+-l)) - log M`` (no ``log(0)`` for saturated logits). For
     ``M = 1`` this is ``binary_cross_entropy_with_logits``.
 
@@ -123,7 +123,7 @@ class QTOptLoss(DrQEncoding, LossModule):
         >>> from tensordict import TensorDict
         >>> from torchrl.data import Bounded
         >>> from torchrl.objectives import SoftUpdate
-        >>> from dcs_torchrl.agents import ObservationNoise, make_critic, make_encoder
+        >>> from dcs_torchrl.modules import ObservationNoise, make_critic, make_encoder
         >>> spec = Bounded(-1.0, 1.0, shape=(2,))
         >>> encoder = make_encoder((5,))
         >>> heads = [make_critic(spec, encoder.feature_dim, hidden_dim=32) for _ in range(2)]
@@ -232,7 +232,7 @@ class QTOptLoss(DrQEncoding, LossModule):
         self._make_vmap()
         # Built now rather than lazily, so that state_dict() has the same keys before and after
         # the first forward (a checkpoint loads into a freshly built loss).
-        self._default_value_estimator()
+        build_default_value_estimator(self)
 
     def _make_vmap(self):
         self._vmap_qnetworkN0 = vmap_func(
@@ -253,7 +253,7 @@ class QTOptLoss(DrQEncoding, LossModule):
             )
 
     def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
-        value_type, hp = self._prepare_value_estimator_kwargs(value_type, **hyperparams)
+        value_type, hp = value_estimator_kwargs(self, value_type, **hyperparams)
         if value_type is None:
             return self
         dispatch_value_estimator(
@@ -337,8 +337,8 @@ class QTOptLoss(DrQEncoding, LossModule):
         else:
             q_value = outputs.mean(1)
             loss = (q_value - target) ** 2
-        weights = self._maybe_get_priority_weight(tensordict)
-        loss_qvalue = self._reduce_loss(loss.sum(0), weights=weights)
+        weights = priority_weight(self, tensordict)
+        loss_qvalue = reduce_loss(self, loss.sum(0), weights=weights)
         td_error = (q_value - target).abs().max(0).values
         tensordict.set(keys.priority, td_error.detach())
         return TensorDict(

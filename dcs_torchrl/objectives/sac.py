@@ -13,6 +13,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives import SACLoss
 from torchrl.objectives.sac import compute_rsample_log_prob
 
+from dcs_torchrl._private_api import build_default_value_estimator, priority_weight, reduce_loss, sac_alpha_loss
 from dcs_torchrl.objectives.drq import DrQEncoding
 
 __all__ = ["DrQSACLoss"]
@@ -55,14 +56,14 @@ class DrQSACLoss(DrQEncoding, SACLoss):
 
     Args:
         actor_network (ProbabilisticActor): the actor head, reading the encoder's embedding
-            (e.g. :func:`~dcs_torchrl.agents.make_sac_actor`).
+            (e.g. :func:`~dcs_torchrl.modules.make_sac_actor`).
         qvalue_network (TensorDictModule or list of them): the critic head(s), reading
             ``[embedding, action]`` and writing ``"state_action_value"``. Pass a list of
             ``num_qvalue_nets`` independently initialised heads to keep their initialisation.
 
     Keyword Args:
         encoder (TensorDictModule): observation -> embedding (one out_key), e.g.
-            :func:`~dcs_torchrl.agents.make_encoder`.
+            :func:`~dcs_torchrl.modules.make_encoder`.
         augmentation (Transform, optional): applied to the encoder's inputs and their
             ``("next", ...)`` counterparts (e.g. ``RandomShift(4, in_keys=["pixels",
             ("next", "pixels")])``); ``None`` when ``num_augmentations == 0``.
@@ -89,7 +90,7 @@ class DrQSACLoss(DrQEncoding, SACLoss):
         >>> from tensordict import TensorDict
         >>> from torchrl.data import Bounded
         >>> from torchrl.objectives import SoftUpdate
-        >>> from dcs_torchrl.agents import RandomShift, make_critic, make_encoder, make_sac_actor
+        >>> from dcs_torchrl.modules import RandomShift, make_critic, make_encoder, make_sac_actor
         >>> spec = Bounded(-1.0, 1.0, shape=(2,))
         >>> encoder = make_encoder((9, 84, 84))
         >>> actor = make_sac_actor(spec, encoder.feature_dim, hidden_dim=32)
@@ -170,7 +171,7 @@ class DrQSACLoss(DrQEncoding, SACLoss):
         )
         # Built now rather than lazily, so that state_dict() has the same keys before and after
         # the first forward (a checkpoint loads into a freshly built loss).
-        self._default_value_estimator()
+        build_default_value_estimator(self)
 
     @property
     def in_keys(self):
@@ -231,7 +232,7 @@ class DrQSACLoss(DrQEncoding, SACLoss):
             },
             batch_size=copies.batch_size,
         )
-        weights = self._maybe_get_priority_weight(tensordict)
+        weights = priority_weight(self, tensordict)
         if weights is not None:
             critic_td.set(keys.priority_weight, weights.expand(copies.batch_size))
         loss_qvalue, value_metadata = self.qvalue_v2_loss(critic_td)
@@ -240,7 +241,7 @@ class DrQSACLoss(DrQEncoding, SACLoss):
         if weights is not None:
             actor_td.set(keys.priority_weight, weights)
         loss_actor, actor_metadata = self.actor_loss(actor_td)
-        loss_alpha = self._reduce_loss(self._alpha_loss(actor_metadata["log_prob"]), weights=weights)
+        loss_alpha = reduce_loss(self, sac_alpha_loss(self, actor_metadata["log_prob"]), weights=weights)
         tensordict.set(keys.priority, value_metadata["td_error"].mean(0))
         return TensorDict(
             {

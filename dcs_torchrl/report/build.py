@@ -36,13 +36,13 @@ from dcs_torchrl.report.tables import (BOLD_FOOTNOTE, benchmark_markdown, benchm
 
 __all__ = ["REPORTED", "Report", "build_report"]
 
-# The experiments of SPEC §5, in the order of the report.
+# The paper's experiments (Stone et al. 2021, Sec. 5), in the order of the report.
 REPORTED = ("benchmarks", "interactions", "robustness", "training")
 TITLES = {
-    "benchmarks": "Benchmarks (SPEC §5.3; the paper's tables default, easy, medium and Figs. 6-7)",
-    "interactions": "Interactions of distractions (SPEC §5.4; the paper's table Interactions)",
-    "robustness": "Robustness at inference (SPEC §5.1; the paper's Fig. 4)",
-    "training": "Training with distractions (SPEC §5.2; the paper's Fig. 5)",
+    "benchmarks": "Benchmarks (Stone et al. 2021, Sec. 5.3: Tables 2-4 and Figs. 6-7)",
+    "interactions": "Interactions of distractions (Stone et al. 2021, Sec. 5.3: Table 5)",
+    "robustness": "Robustness at inference (Stone et al. 2021, Sec. 5.1: Fig. 4)",
+    "training": "Training with distractions (Stone et al. 2021, Sec. 5.2: Fig. 5)",
 }
 
 
@@ -131,17 +131,26 @@ STAND_IN = ("Backgrounds: the embedded stand-in videos, not DAVIS 2017 — backg
             "comparable to the paper's")
 
 
+def _stand_in(runs: pd.DataFrame) -> pd.Series:
+    return runs["backgrounds"].str.startswith("stand-in") if "backgrounds" in runs else pd.Series(False, runs.index)
+
+
 def stand_in_note(runs: pd.DataFrame) -> str:
-    """:data:`STAND_IN` if any of ``runs`` trained or evaluated on the embedded stand-in videos, else ``""``."""
-    return STAND_IN if "backgrounds" in runs and (runs["backgrounds"] == "stand-in").any() else ""
+    """:data:`STAND_IN` if any of ``runs`` trained or evaluated on the embedded stand-in videos, else ``""``;
+    it names the versions of the videos when the runs saw more than one."""
+    versions = sorted(set(runs.loc[_stand_in(runs), "backgrounds"])) if len(runs) else []
+    if not versions:
+        return ""
+    if len(versions) > 1:
+        return STAND_IN + f"; the runs mix versions of them ({', '.join(v.removeprefix('stand-in ') for v in versions)})"
+    return STAND_IN + f" ({versions[0].removeprefix('stand-in ')})"
 
 
 def _stand_in_md(runs: pd.DataFrame) -> list[str]:
     note = stand_in_note(runs)
     if not note:
         return []
-    n = int((runs["backgrounds"] == "stand-in").sum())
-    return [f"**{note}** ({n} runs of this section).", ""]
+    return [f"**{note}** ({int(_stand_in(runs).sum())} runs of this section).", ""]
 
 
 def _missing_md(lines: list[str]) -> list[str]:

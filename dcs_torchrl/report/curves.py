@@ -1,4 +1,4 @@
-"""Score vs distraction intensity (experiments ``robustness`` and ``training``, SPEC §5.1-5.2).
+"""Score vs distraction intensity (experiments ``robustness`` and ``training``; Stone et al. 2021, Secs. 5.1-5.2, Figs. 4-5).
 
 Each point is the mean over tasks (per seed, then mean ± s.e. over seeds, as in the tables)
 of one method at one intensity in one setting. The half-score table gives the first intensity
@@ -18,7 +18,7 @@ from dcs_torchrl.report.select import select, tasks_of
 from dcs_torchrl.report.stats import task_mean
 from dcs_torchrl.report.tables import setting_name
 
-__all__ = ["CURVE_COLUMNS", "curve_table", "half_score_table", "half_score_markdown", "curves_markdown"]
+__all__ = ["BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "half_score_table", "half_score_markdown", "curves_markdown"]
 
 CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks")
 
@@ -76,7 +76,7 @@ def half_score_table(curves: pd.DataFrame) -> pd.DataFrame:
         [{'score_at_0': 800.0, 'half_at': 0.2, 'paper': '0.2'}]
     """
     records = []
-    keys = ["experiment", "axis", "eval_split", "dynamic", "method"]
+    keys = ["experiment", "axis", "eval_split", "dynamic", "method"] + (["blend"] if "blend" in curves else [])
     for key, group in curves.groupby(keys, sort=False):
         group = group.sort_values("value")
         at0 = group[group["value"] == 0]["mean"]
@@ -88,7 +88,17 @@ def half_score_table(curves: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame.from_records(records, columns=keys + ["score_at_0", "half_at", "max_value", "paper"])
 
 
-def _half_text(r) -> str:
+#: The ``blend`` of a curve whose background blend accumulates over episodes as in the 2021 code
+#: (``reference_blend``); curves without a ``blend`` column, or with ``"paper"``, blend as the paper says.
+BLEND_2021 = "2021 code"
+
+
+def blend_suffix(blend: str = "paper") -> str:
+    """What a row label adds for a curve of the 2021 code's blend."""
+    return " (2021 blend)" if blend == BLEND_2021 else ""
+
+
+def half_text(r) -> str:
     if math.isnan(r.score_at_0):
         return "no point at 0"
     return fmt_value(r.half_at) if not math.isnan(r.half_at) else f"> {fmt_value(r.max_value)}"
@@ -134,9 +144,11 @@ def half_score_markdown(half: pd.DataFrame) -> str:
     if half.empty:
         return "No results."
     rows = []
-    for (axis, split, dynamic), g in half.groupby(["axis", "eval_split", "dynamic"], sort=False):
-        by_method = {r.method: _half_text(r) for r in g.itertuples()}
-        rows.append([axis + ("" if split == "train" else " (unseen videos)"), setting_name(dynamic)]
+    variants = ["axis", "eval_split", "dynamic"] + (["blend"] if "blend" in half else [])
+    for (axis, split, dynamic, *blend), g in half.groupby(variants, sort=False):
+        by_method = {r.method: half_text(r) for r in g.itertuples()}
+        label = axis + ("" if split == "train" else " (unseen videos)") + blend_suffix(*blend)
+        rows.append([label, setting_name(dynamic)]
                     + [by_method.get(m, MISSING) for m in METHODS] + [g["paper"].iloc[0] or MISSING])
     table = md_table(["Axis", "Setting", *METHODS, "Paper (top methods)"], rows, "ll" + "r" * (len(METHODS) + 1))
     return table + ("\n\nThe first intensity whose mean score over tasks is at most half the score at 0; "

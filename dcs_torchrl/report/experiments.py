@@ -1,12 +1,12 @@
 """The paper's experiments as data: methods, tasks, sweep axes and the grid each one covers.
 
-SPEC §4-§5. The report compares what a results directory holds against these grids to say
+Stone et al. 2021, Secs. 4-5 (docs/paper.md). The report compares what a results directory holds against these grids to say
 which cells are missing; values found in the results but not listed here are reported too.
 """
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from dcs_torchrl.methods import METHODS as _METHODS
@@ -17,6 +17,8 @@ __all__ = [
     "TASK_ORDER",
     "TASK_LABELS",
     "AXES",
+    "SWEEP_AXES",
+    "SweepAxis",
     "SEEDS",
     "Panel",
     "EXPERIMENTS",
@@ -42,13 +44,37 @@ TASK_LABELS: MappingProxyType[tuple[str, str], str] = MappingProxyType(
     }
 )
 
-# Seeds per cell in the paper (SPEC §4); cells with another count are annotated.
+# Seeds per cell in the paper (its Sec. 5); cells with another count are annotated.
 SEEDS = 5
 
+
+@dataclass(frozen=True)
+class SweepAxis:
+    """How a sweep axis sets the env: ``key`` (a make_env setting) takes the value, of type ``kind``;
+    ``fixed`` settings go with it."""
+
+    key: str
+    kind: type
+    fixed: dict = field(default_factory=dict)
+
+    def config(self) -> dict:
+        """The ``axes`` entry of ``recipes/experiments/conf/config.yaml``: ``{key, fixed}``."""
+        return {"key": self.key, "fixed": dict(self.fixed)}
+
+
+# The sweep axes of results.json (`sweep.axis`), defined once: the experiments config reads them
+# (`axes: ${dcs_axes:}`), the grid and the report their value types (AXES).
+SWEEP_AXES: MappingProxyType[str, SweepAxis] = MappingProxyType({
+    "benchmark": SweepAxis("benchmark", str),
+    "camera": SweepAxis("camera_scale", float),
+    "color": SweepAxis("color_scale", float),
+    # β_bg with b = 60 (the paper's Sec. 5.1); b with β_bg = 1 (its Sec. 5.2)
+    "background_blend": SweepAxis("background_blend", float, {"num_videos": 60}),
+    "num_videos": SweepAxis("num_videos", int, {"background_blend": 1.0}),
+})
+
 # Sweep axes of results.json (`sweep.axis`) and the type of their `value`.
-AXES: MappingProxyType[str, type] = MappingProxyType(
-    {"camera": float, "color": float, "background_blend": float, "num_videos": int, "benchmark": str}
-)
+AXES: MappingProxyType[str, type] = MappingProxyType({axis: spec.kind for axis, spec in SWEEP_AXES.items()})
 
 _INTENSITIES = tuple(round(0.1 * i, 1) for i in range(11))
 # Fig. 1 caption: 0, 1, then doubling up to all 60 training videos.
@@ -66,7 +92,7 @@ class Panel:
         values: the paper's grid along the axis.
         title: panel title in the figures.
         xlabel: x-axis label, with the symbol and unit.
-        eval_split: ``train`` or ``val`` (unseen background videos, SPEC §5.2).
+        eval_split: ``train`` or ``val`` (unseen background videos, the paper's Sec. 5.2).
     """
 
     axis: str
@@ -86,7 +112,7 @@ class Panel:
         return re.sub(r"\$\\beta_\{(\w+)\}\$", r"β_\1", self.xlabel)
 
 
-# What each experiment sweeps (SPEC §5). Each panel is swept static and dynamic.
+# What each experiment sweeps (the paper's Sec. 5). Each panel is swept static and dynamic.
 EXPERIMENTS: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType(
     {
         "robustness": (
@@ -107,7 +133,7 @@ EXPERIMENTS: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType(
     }
 )
 
-# The difficulties of the interactions table (SPEC §5.4) and the benchmark they decompose.
+# The difficulties of the interactions table (the paper's Table 5) and the benchmark they decompose.
 INTERACTION_DIFFICULTIES: tuple[str, ...] = ("easy", "medium")
 
 

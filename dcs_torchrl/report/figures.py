@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from dcs_torchrl.report.curves import BLEND_2021
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.methods import METHODS as REGISTRY
@@ -39,6 +40,7 @@ _PALETTE = {
 }
 METHOD_COLORS = MappingProxyType({m.name: _PALETTE[m.algo, m.aug] for m in REGISTRY.values()})
 LINESTYLES = MappingProxyType({False: "-", True: "--"})
+BLEND_MARKERS = MappingProxyType({"paper": "o", BLEND_2021: "x"})
 YLABEL = "mean episode return over tasks"
 
 
@@ -46,7 +48,8 @@ def _method_handles(methods) -> list:
     return [Line2D([], [], color=METHOD_COLORS[m], lw=2.5, label=m) for m in methods]
 
 
-def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "") -> Path:
+def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "",
+                  spread: str = "mean ± s.e. over seeds") -> Path:
     """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG.
 
     Args:
@@ -54,8 +57,11 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         experiment: ``robustness`` or ``training``.
         path: the PNG to write.
         note: a line under the title (e.g. that the backgrounds are stand-in videos).
+        spread: what the line and its band are, in the title.
     """
     panels = EXPERIMENTS[experiment]
+    if "blend" not in curves:
+        curves = curves.assign(blend="paper")
     fig = Figure(figsize=(4.2 * len(panels), 4.0))
     axes = fig.subplots(1, len(panels), squeeze=False)
     methods = [m for m in METHODS if m in set(curves["method"])]
@@ -63,12 +69,13 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     for ax, panel in zip(axes[0], panels):
         mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
         values = sorted(set(mine["value"]))
-        for (dynamic, method), g in mine.groupby(["dynamic", "method"], sort=False):
+        for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
             g = g.set_index("value").reindex(values)  # a missing point breaks the line instead of bridging it
             x = np.asarray(values, float)
             y, se = g["mean"].to_numpy(float), np.nan_to_num(g["stderr"].to_numpy(float))
             color = METHOD_COLORS[method]
-            ax.plot(x, y, LINESTYLES[bool(dynamic)], color=color, lw=1.8, marker="o", ms=3)
+            ax.plot(x, y, LINESTYLES[bool(dynamic)], color=color, lw=1.8, marker=BLEND_MARKERS.get(blend, "o"),
+                    ms=3 if blend != BLEND_2021 else 5)
             ax.fill_between(x, y - se, y + se, color=color, alpha=0.15, lw=0)
         if panel.axis == "num_videos":
             ax.set_xscale("symlog", linthresh=1)
@@ -82,14 +89,17 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         if mine.empty:
             ax.text(0.5, 0.5, "no results", transform=ax.transAxes, ha="center", va="center", color="0.4")
             ax.set_yticks([])
-    axes[0][0].set_ylabel(YLABEL if not n_tasks else YLABEL.replace("tasks", f"{n_tasks} tasks"))
+    axes[0][0].set_ylabel(YLABEL.replace("tasks", f"{n_tasks} tasks") if n_tasks > 1 else "mean episode return")
     styles = [Line2D([], [], color="k", ls=LINESTYLES[False], label="static"),
               Line2D([], [], color="k", ls=LINESTYLES[True], label="dynamic")]
+    if (curves["blend"] == BLEND_2021).any():
+        styles += [Line2D([], [], color="k", marker=BLEND_MARKERS[b], ms=5, lw=0, label=label)
+                   for b, label in (("paper", "blend as the paper"), (BLEND_2021, "blend as the 2021 code"))]
     handles = _method_handles(methods) + styles
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False, fontsize=10)
     titles = {"robustness": "Trained without distractions, evaluated with one distraction",
               "training": "Trained and evaluated with one distraction"}
-    fig.suptitle(f"{titles.get(experiment, experiment)} (mean ± s.e. over seeds)" + (f"\n{note}" if note else ""), fontsize=12)
+    fig.suptitle(f"{titles.get(experiment, experiment)} ({spread})" + (f"\n{note}" if note else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     return _save(fig, path)
 

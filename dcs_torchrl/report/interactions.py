@@ -1,4 +1,4 @@
-"""The interactions table (SPEC §5.4, the paper's table "Interactions of distracting effects").
+"""The interactions table (Stone et al. 2021, Sec. 5.3, Table 5: "Interactions of distracting effects").
 
 Per method, difficulty (easy / medium) and setting (static / dynamic): the relative score of
 each distraction alone (its mean over tasks divided by the no-distraction mean over tasks),

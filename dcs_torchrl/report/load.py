@@ -177,19 +177,25 @@ def parse_run(data: object, path: str = "") -> dict:
 
 def backgrounds(*envs: dict) -> str:
     """Which background videos a run saw (trained or evaluated): ``"none"``, ``"folder"`` (a
-    ``background_dir``: DAVIS 2017 or the user's videos) or ``"stand-in"`` (the embedded default
-    videos, not the paper's DAVIS backgrounds).
+    ``background_dir``: DAVIS 2017 or the user's videos) or ``"stand-in vN"`` (the embedded default
+    videos of version N, not the paper's DAVIS backgrounds; runs recorded before versions were
+    recorded saw version 1).
 
     Examples:
         >>> backgrounds({"num_videos": 4, "background_dir": None}, {"num_videos": 0})
-        'stand-in'
+        'stand-in v1'
         >>> backgrounds({"num_videos": 0}, {}), backgrounds({"num_videos": 8, "background_dir": "/d"})
         ('none', 'folder')
+        >>> backgrounds({"num_videos": 8, "background_dir": None, "embedded_videos": 2})
+        'stand-in v2'
     """
     used = [env for env in envs if (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) != 0]
     if not used:
         return "none"
-    return "folder" if all(env.get("background_dir") for env in used) else "stand-in"
+    if all(env.get("background_dir") for env in used):
+        return "folder"
+    versions = sorted({env.get("embedded_videos", 1) for env in used if not env.get("background_dir")})
+    return "stand-in " + "+".join(f"v{v}" for v in versions)
 
 
 def one_budget(runs: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, tuple[int, int] | None]:

@@ -1,6 +1,6 @@
 """Seed statistics: mean ± standard error over seeds, the mean over tasks, and the bold rule.
 
-SPEC §4 and the paper's table captions: a cell's score is the mean over seeds of each run's
+The paper's Sec. 5 and its table captions (docs/paper.md): a cell's score is the mean over seeds of each run's
 ``eval.mean``, its error the standard error over seeds; a result is bold if it has the
 highest mean or is not significantly worse than the highest mean at p < 0.1.
 

@@ -14,7 +14,8 @@ from omegaconf import DictConfig
 from tensordict.nn import TensorDictModuleBase
 from torchrl.objectives import LossModule, SoftUpdate
 
-from dcs_torchrl.agents import RandomShift, augmentation_copies, make_critic, make_encoder, with_next_keys
+from dcs_torchrl.methods import augmentation_copies
+from dcs_torchrl.modules import RandomShift, make_critic, make_encoder, with_next_keys
 
 __all__ = ["LossAgent", "pixel_networks"]
 
@@ -23,7 +24,7 @@ def pixel_networks(cfg: DictConfig, observation_shape: Sequence[int], action_spe
     """``(encoder, critics, augmentation, copies)`` for a recipe config.
 
     ``copies`` is DrQ's K = M from ``algo.aug`` (none 0, rad 1, drq 2); the augmentation is
-    DrQ's :class:`~dcs_torchrl.agents.RandomShift` (pad ``algo.image_pad``) on the observation
+    DrQ's :class:`~dcs_torchrl.modules.RandomShift` (pad ``algo.image_pad``) on the observation
     and the next observation, ``None`` for ``none``.
     """
     copies = augmentation_copies(cfg.algo.aug)

@@ -86,7 +86,8 @@ def make_pixel_env(
     image_size: int = 84,
     render_profile: str = "default",
 ) -> TransformedEnv:
-    """``num_workers`` suite envs, batch size ``[num_workers]``, seeded ``seed, seed + 1, ...``.
+    """``num_workers`` suite envs, batch size ``[num_workers]``, seeded from ``seed`` (the first
+    worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
 
     One env runs in this process (``SerialEnv``): no worker to wake and no process spinning on
     the other core while it renders. Several run in spawned ``ParallelEnv`` workers, this

@@ -42,7 +42,7 @@ from dcs_torchrl.training.timing import PhaseTimer
 
 __all__ = ["Agent", "Workspace", "acting_on", "train"]
 
-EVAL_SEED_OFFSET = 10_000  # the evaluation envs' own seeds: seed + 10_000, + 1, ...
+EVAL_SEED_OFFSET = 10_000  # the evaluation envs' own seeds start at seed + 10_000 (their workers': derived from it)
 log = logging.getLogger(__name__)  # a recipe's console and <recipe>.log in its run directory (Hydra)
 
 
@@ -59,7 +59,7 @@ class Agent(Protocol):
     def load_state_dict(self, state: dict) -> None: ...
 
 
-AgentBuilder = Callable[[DictConfig, tuple, object, int], Agent]
+AgentBuilder = Callable[[DictConfig, tuple, object], Agent]
 
 
 def _scene_label(s) -> str:
@@ -166,7 +166,7 @@ class Workspace:
                                            seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
             observation_shape = tuple(self.env.observation_spec["pixels"].shape[-3:])
             action_spec = self.env.action_spec[0] if self.env.batch_size else self.env.action_spec
-            self.agent = build_agent(cfg, observation_shape, action_spec, self.repeat)
+            self.agent = build_agent(cfg, observation_shape, action_spec)
             self.buffer = FrameStackReplayBuffer(
                 cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
                 batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // self.repeat),

@@ -23,6 +23,15 @@ IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "
                      "network.channels_last", "network.compile")
 
 
+# Settings added after runs were recorded: absent from an older run_config.json, they count as
+# the value they had before they existed (the 2021 blend off, the 256-pixel sky), under any section.
+ADDED_SETTINGS = {"reference_blend": (False, None), "texture_size": (256, None)}
+
+
+def _added_later(key: str, value) -> bool:
+    return value in ADDED_SETTINGS.get(key.rsplit(".", 1)[-1], ())
+
+
 class RunMismatchError(ValueError):
     """The run directory holds a run of another configuration."""
 
@@ -86,7 +95,8 @@ class RunDirectory:
         if recorded_path.exists():
             recorded = json.loads(recorded_path.read_text())
             mine, theirs = flatten(self.identity), flatten(_identity(recorded))
-            diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>"))
+            diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k, "<unset>") != theirs.get(k, "<unset>")
+                          and not (k not in theirs and _added_later(k, mine[k])))
             if diff:
                 lines = ", ".join(f"{k}: {theirs.get(k, '<unset>')!r} there, {mine.get(k, '<unset>')!r} now" for k in diff)
                 raise RunMismatchError(

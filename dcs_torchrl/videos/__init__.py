@@ -1,11 +1,11 @@
-"""Background videos for :class:`~dcs_torchrl.BackgroundDistraction` (SPEC §1.3).
+"""Background videos for :class:`~dcs_torchrl.BackgroundDistraction` (the paper's background distraction).
 
 A :class:`VideoSource` is an ordered set of videos whose frames come out as read-only
 uint8 arrays [T, size, size, 3] (RGB), decoded once per process through a shared,
 bounded cache. :func:`open_source` picks the source for a path:
 
 - ``None``: :class:`EmbeddedSource`, 60 + 30 procedural clips that need no download
-  (a stand-in, not the paper's backgrounds);
+  (a stand-in, not the paper's backgrounds; their version is :data:`EMBEDDED_VERSION`);
 - a DAVIS 2017 folder: :class:`DavisSource`, the paper's videos in official order;
 - any other folder of frame folders or video files: :class:`FolderSource`.
 
@@ -18,10 +18,11 @@ from pathlib import Path
 
 from dcs_torchrl.videos.cache import CacheInfo, cache_info, clear_cache, set_cache_limit
 from dcs_torchrl.videos.davis import DavisSource, find_frames_dir
-from dcs_torchrl.videos.embedded import EmbeddedSource
+from dcs_torchrl.videos.embedded import EMBEDDED_VERSION, EmbeddedSource
 from dcs_torchrl.videos.folder import FolderSource
 from dcs_torchrl.videos.lists import DAVIS17_TRAIN, DAVIS17_VAL, SPLIT_ALIASES, canonical_split
 from dcs_torchrl.videos.source import ArraySource, VideoSource
+from dcs_torchrl.videos.statistics import frame_statistics
 
 __all__ = [
     "ArraySource",
@@ -29,6 +30,7 @@ __all__ = [
     "DAVIS17_TRAIN",
     "DAVIS17_VAL",
     "DavisSource",
+    "EMBEDDED_VERSION",
     "EmbeddedSource",
     "FolderSource",
     "SPLIT_ALIASES",
@@ -36,6 +38,7 @@ __all__ = [
     "cache_info",
     "canonical_split",
     "clear_cache",
+    "frame_statistics",
     "open_source",
     "set_cache_limit",
 ]

@@ -1,4 +1,4 @@
-"""DavisSource: the DAVIS 2017 videos the paper projects onto the sky (SPEC §1.3)."""
+"""DavisSource: the DAVIS 2017 videos the paper projects onto the sky."""
 from __future__ import annotations
 
 import os

@@ -1,8 +1,8 @@
 """The official DAVIS 2017 video lists and the split names accepted everywhere.
 
 The lists are the ``ImageSets/2017/train.txt`` and ``val.txt`` of DAVIS 2017 TrainVal,
-in official order: the order the authors' 2021 code draws "the first b videos" from
-(SPEC §1.3). The paper's 30 held-out "test" videos are the validation list.
+in official order: the order the authors' 2021 code draws "the first b videos" from.
+The paper's 30 held-out "test" videos are the validation list.
 """
 from __future__ import annotations
 

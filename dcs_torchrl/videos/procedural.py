@@ -126,6 +126,10 @@ class Part:
     """An ellipse (or rounded box) of a sprite, in sprite units (the object is ~1 tall).
 
     ``cos``/``sin`` rotate it; ``shade`` in [0, 1] is how much light direction darkens it.
+    ``pattern`` paints ``pattern_color`` over it in the part's own coordinates (so the
+    pattern moves and turns with the part): ``STRIPES`` across its width, ``BANDS``
+    along its length, ``SPOTS`` or ``CHECKS``, ``freq`` of them across the part. Every
+    part gets a dark rim about a pixel wide (a contour, as objects in footage have).
     """
 
     x: float
@@ -138,6 +142,33 @@ class Part:
     shade: float = 0.7
     alpha: float = 1.0
     box: bool = False
+    pattern: int = 0
+    pattern_color: np.ndarray | None = None
+    freq: float = 3.0
+
+
+PLAIN, STRIPES, BANDS, SPOTS, CHECKS = range(5)
+
+
+def pattern_mask(kind: int, u, v, freq: float, pixels: float):
+    """Coverage in [0, 1] of a part's pattern at part coordinates (u, v) in [-1, 1].
+
+    ``pixels`` is the part's half size in pixels: pattern edges are about a pixel soft.
+    """
+    sharp = F32(max(pixels / (2.0 * freq), 1.0))  # pixels per half period: antialiasing
+    if kind == STRIPES or kind == BANDS:
+        x = (u if kind == STRIPES else v) * F32(freq / 2)
+        tri = np.abs(x - np.floor(x) - F32(0.5)) * F32(4) - F32(1)  # [-1, 1], period 1
+        return np.clip(tri * sharp + F32(0.5), 0, 1)
+    if kind == SPOTS:
+        x, y = (u + F32(1)) * F32(freq / 2), (v + F32(1)) * F32(freq / 2)
+        fx, fy = x - np.floor(x) - F32(0.5), y - np.floor(y) - F32(0.5)
+        return np.clip((F32(0.3) - np.sqrt(fx * fx + fy * fy)) * sharp * F32(4) + F32(0.5), 0, 1)
+    if kind == CHECKS:
+        a = pattern_mask(STRIPES, u, v, freq, pixels) * F32(2) - F32(1)
+        b = pattern_mask(BANDS, u, v, freq, pixels) * F32(2) - F32(1)
+        return a * b * F32(0.5) + F32(0.5)
+    return None
 
 
 def rotation(t: float) -> tuple[float, float]:
@@ -193,9 +224,16 @@ def render(parts: list[Part], scale: float) -> Sprite:
             nz = np.sqrt(np.maximum(F32(1) - d2, F32(0)))
             nx, ny = F32(p.cos) * u - F32(p.sin) * v, F32(p.sin) * u + F32(p.cos) * v
             light = np.maximum(nx * F32(LIGHT[0]) + ny * F32(LIGHT[1]) + nz * F32(LIGHT[2]), F32(0))
-        a = np.clip((F32(1) - d) * F32(min(rx, ry)) + F32(0.5), F32(0), F32(1)) * F32(p.alpha)
+        inside = (F32(1) - d) * F32(min(rx, ry))  # ~pixels from the outline
+        a = np.clip(inside + F32(0.5), F32(0), F32(1)) * F32(p.alpha)
         lum = F32(1 - p.shade) + F32(p.shade) * (F32(0.25) + F32(0.95) * light)
-        shaded = np.asarray(p.color, F32) * lum[..., None]
+        if p.shade > 0:
+            lum = lum * (F32(0.45) + F32(0.55) * np.clip(inside * F32(0.7), F32(0), F32(1)))  # the rim
+        base = np.asarray(p.color, F32)
+        if p.pattern:
+            m = pattern_mask(p.pattern, u, v, p.freq, min(rx, ry))
+            base = base + (np.asarray(p.pattern_color, F32) - base) * m[..., None]
+        shaded = base * lum[..., None]
         region, covered = color[r0:r1, c0:c1], cover[r0:r1, c0:c1]
         region += (shaded - region) * a[..., None]
         covered += (F32(1) - covered) * a

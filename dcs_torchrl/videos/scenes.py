@@ -24,7 +24,7 @@ def sky(rng, height: int, width: int, horizon: float) -> tuple[np.ndarray, np.nd
         cloud, cover = hsv(0.6, 0.03, 0.98), uniform(rng, 0.0, 0.45)
     elif mood == 1:  # overcast
         grey = uniform(rng, 0.55, 0.8)
-        top, low = hsv(0.6, 0.08, grey - 0.1), hsv(0.6, 0.05, grey + 0.1)
+        top, low = hsv(0.6, 0.2, grey - 0.1), hsv(0.6, 0.1, grey + 0.1)
         cloud, cover = hsv(0.6, 0.04, grey + 0.12), uniform(rng, 0.4, 0.8)
     elif mood == 2:  # sunset
         top, low = hsv(uniform(rng, 0.62, 0.75), uniform(rng, 0.35, 0.55), uniform(rng, 0.35, 0.55)), hsv(
@@ -71,13 +71,13 @@ GROUNDS = {
     "grass": ((0.2, 0.3), (0.4, 0.7), (0.3, 0.55), (0.1, 0.16), (0.35, 0.55), (0.45, 0.65)),
     "savanna": ((0.1, 0.15), (0.35, 0.6), (0.55, 0.75), (0.2, 0.27), (0.3, 0.5), (0.35, 0.5)),
     "sand": ((0.08, 0.12), (0.25, 0.45), (0.7, 0.88), (0.06, 0.1), (0.3, 0.5), (0.55, 0.7)),
-    "snow": ((0.55, 0.62), (0.03, 0.08), (0.88, 0.97), (0.58, 0.64), (0.08, 0.15), (0.78, 0.86)),
+    "snow": ((0.55, 0.62), (0.08, 0.15), (0.85, 0.95), (0.58, 0.64), (0.2, 0.35), (0.65, 0.8)),
     "dirt": ((0.05, 0.09), (0.3, 0.55), (0.35, 0.55), (0.08, 0.12), (0.2, 0.4), (0.55, 0.7)),
-    "rock": ((0.05, 0.12), (0.05, 0.2), (0.35, 0.6), (0.55, 0.62), (0.05, 0.15), (0.5, 0.7)),
+    "rock": ((0.05, 0.12), (0.2, 0.4), (0.35, 0.6), (0.55, 0.62), (0.15, 0.3), (0.5, 0.7)),
 }
 
 
-GROUND_MIX = ("grass", "grass", "grass", "savanna", "savanna", "sand", "snow", "dirt", "dirt", "rock")
+GROUND_MIX = ("grass", "grass", "grass", "grass", "savanna", "savanna", "sand", "snow", "dirt", "rock")
 
 
 def ground_colors(rng, kind: str):
@@ -95,7 +95,7 @@ def land(image, rng, horizon: float, kind: str, haze) -> np.ndarray:
     detail, depth = perspective(rng, height, width, horizon, (uniform(rng, 0.3, 0.8), uniform(rng, 0.3, 0.8)))
     fine, _ = perspective(rng, height, width, horizon, (3.0, 3.0), cells=(8, 8), octaves=4)
     base = mix(first, second, smoothstep(patches * F32(1.5) + F32(0.5)))
-    contrast = F32(0.12 if kind == "snow" else 0.3)
+    contrast = F32(0.15 if kind == "snow" else 0.45)
     ground = base * (F32(0.8) + contrast * detail[..., None] + contrast * F32(0.4) * fine[..., None])
     ground = mix(ground, haze, smoothstep((depth - F32(6)) / F32(30)) * F32(0.7))
     return mix(image, ground, np.clip(rows(height) - F32(horizon), 0, 1))
@@ -144,8 +144,11 @@ def buildings(image, rng, horizon: float, haze) -> np.ndarray:
     while x < width:
         w = height * uniform(rng, 0.12, 0.4)
         top = horizon - height * uniform(rng, 0.15, 0.7)
-        wall = hsv(uniform(rng, 0.0, 0.15), uniform(rng, 0.0, 0.35), uniform(rng, 0.35, 0.85))
-        glass = hsv(uniform(rng, 0.5, 0.65), uniform(rng, 0.1, 0.4), uniform(rng, 0.15, 0.6))
+        wall = hsv(uniform(rng, 0.0, 0.15) if rng.random() < 0.5 else uniform(rng, 0, 1), uniform(rng, 0.2, 0.75),
+                   uniform(rng, 0.35, 0.9))
+        glass = hsv(uniform(rng, 0.5, 0.65), uniform(rng, 0.2, 0.6), uniform(rng, 0.1, 0.5))
+        lit = hsv(uniform(rng, 0.1, 0.15), uniform(rng, 0.3, 0.7), 0.95)  # lit windows, shop fronts
+        awning = hsv(uniform(rng, 0, 1), uniform(rng, 0.6, 1.0), uniform(rng, 0.6, 1.0))
         pitch_x, pitch_y = height * uniform(rng, 0.025, 0.05), height * uniform(rng, 0.035, 0.06)
         c0, c1 = int(np.ceil(x - 0.5)), min(int(np.ceil(x + w - 0.5)), width)
         r0, r1 = max(int(np.ceil(top - 0.5)), 0), min(int(np.ceil(horizon + 0.5)), height)
@@ -155,6 +158,12 @@ def buildings(image, rng, horizon: float, haze) -> np.ndarray:
             windows = (xs - np.floor(xs) > F32(0.35)) & (ys - np.floor(ys) > F32(0.4)) & (ys > F32(0.8))
             side = F32(0.85) + F32(0.15) * xs * F32(pitch_x / w)
             color = np.where(windows[..., None], glass, wall * side[..., None])
+            on = rng.random((int(np.ceil((r1 - top) / pitch_y)) + 2, int(np.ceil(w / pitch_x)) + 2)) < 0.3
+            on = on[np.floor(ys[:, 0]).astype(np.intp).clip(0)][:, np.floor(xs[0]).astype(np.intp).clip(0)]
+            color = np.where((windows & on)[..., None], lit, color)
+            shop = np.broadcast_to(ys > F32((horizon - top) / pitch_y - 3.0), windows.shape)  # street level
+            stripes = (xs * F32(2) - np.floor(xs * F32(2))) < F32(0.5)
+            color = np.where((shop & stripes)[..., None], awning, np.where(shop[..., None], awning * F32(0.3), color))
             image[r0:r1, c0:c1] = mix(color, haze, F32(0.15))
         x += w + height * uniform(rng, 0.0, 0.05)
     return image
@@ -164,7 +173,7 @@ def road(image, rng, horizon: float, haze) -> np.ndarray:
     """An asphalt road plane with dashed lane markings."""
     height, width = image.shape[:2]
     tone = uniform(rng, 0.25, 0.45)
-    asphalt = hsv(uniform(rng, 0.55, 0.65), 0.05, tone)
+    asphalt = hsv(uniform(rng, 0, 1), uniform(rng, 0.05, 0.3), tone)
     grit, depth = perspective(rng, height, width, horizon, (2.0, 2.0), cells=(8, 8), octaves=4)
     color = asphalt * (F32(0.92) + F32(0.14) * grit[..., None])
     x = (np.arange(width, dtype=F32)[None, :] - F32(width * uniform(rng, 0.3, 0.7))) / F32(height)
@@ -177,16 +186,33 @@ def road(image, rng, horizon: float, haze) -> np.ndarray:
 
 def arena(rng, height: int, width: int, horizon: float) -> np.ndarray:
     """Indoors or a court: a wall with a stripe, and a wooden, painted or tiled floor."""
-    wall = hsv(uniform(rng, 0, 1), uniform(rng, 0.05, 0.4), uniform(rng, 0.4, 0.9))
+    wall = hsv(uniform(rng, 0, 1), uniform(rng, 0.3, 0.8), uniform(rng, 0.4, 0.9))
     plaster = fbm(rng, height, width, (3, 4), octaves=6)
     light = F32(0.8) + F32(0.2) * rows(height)[..., None] / F32(height)
     image = wall * (F32(0.9) + F32(0.15) * plaster[..., None]) * light
+    # stands of spectators above the wall: a mosaic of clothes colours and faces, row by row
+    seat = height * uniform(rng, 0.025, 0.045)
+    stand_top, stand_bottom = horizon - height * uniform(rng, 0.35, 0.6), horizon - height * 0.12
+    r0, r1 = max(int(stand_top), 0), max(int(stand_bottom), 0)
+    if r1 > r0:
+        ny, nx = int((r1 - r0) / seat) + 2, int(width / seat) + 2
+        crowd = np.stack([hsv(float(h), float(sat), float(v)) for h, sat, v in
+                          rng.random((ny * nx, 3)) * np.array([1.0, 0.8, 0.75]) + np.array([0.0, 0.2, 0.2])])
+        ys = (np.arange(r0, r1, dtype=F32) + F32(0.5) - F32(r0)) / F32(seat)
+        xs = (np.arange(width, dtype=F32) + F32(0.5)) / F32(seat) + (np.floor(ys)[:, None] % 2) * F32(0.5)
+        cell = np.floor(ys).astype(np.intp)[:, None] * nx + np.floor(xs).astype(np.intp)
+        fy, fx = (ys - np.floor(ys))[:, None], xs - np.floor(xs)
+        head = (fx - F32(0.5)) ** 2 + (fy - F32(0.3)) ** 2 < F32(0.04)
+        body = (fy > F32(0.5)) & (np.abs(fx - F32(0.5)) < F32(0.4))
+        skin = hsv(0.07, 0.45, 0.75)
+        people = np.where(head[..., None], skin, np.where(body[..., None], crowd[cell], crowd[cell] * F32(0.25)))
+        image[r0:r1] = people
     stripe = (rows(height) > F32(horizon - height * 0.12)) & (rows(height) < F32(horizon - height * 0.08))
-    image = np.where(stripe[..., None], hsv(uniform(rng, 0, 1), 0.5, 0.5), image)
+    image = np.where(stripe[..., None], hsv(uniform(rng, 0, 1), 0.8, 0.6), image)
     style = int(rng.integers(3))  # wood, painted court, tiles
     floor = [hsv(uniform(rng, 0.05, 0.11), uniform(rng, 0.35, 0.6), uniform(rng, 0.45, 0.75)),
-             hsv(uniform(rng, 0, 1), uniform(rng, 0.3, 0.6), uniform(rng, 0.35, 0.7)),
-             hsv(uniform(rng, 0, 1), uniform(rng, 0.0, 0.15), uniform(rng, 0.5, 0.9))][style]
+             hsv(uniform(rng, 0, 1), uniform(rng, 0.4, 0.8), uniform(rng, 0.35, 0.7)),
+             hsv(uniform(rng, 0, 1), uniform(rng, 0.2, 0.6), uniform(rng, 0.5, 0.9))][style]
     stretch = (0.5, 4.0) if style == 0 else (1.0, 1.0)  # wood grain runs along the planks
     grain, depth = perspective(rng, height, width, horizon, stretch, cells=(12, 2), octaves=4)
     x = (np.arange(width, dtype=F32)[None, :] - F32(width / 2)) / F32(height) * depth * F32(uniform(rng, 3, 9))

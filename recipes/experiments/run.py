@@ -1,4 +1,4 @@
-"""Launches one of the paper's experiments (SPEC §5) as a Hydra multirun through submitit.
+"""Launches one of the paper's experiments (Stone et al. 2021, Sec. 5) as a Hydra multirun through submitit.
 
     python recipes/experiments/run.py -m experiment=robustness budget=smoke              # this machine
     python recipes/experiments/run.py -m experiment=training budget=paper launcher=slurm \\

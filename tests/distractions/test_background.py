@@ -1,4 +1,4 @@
-"""BackgroundDistraction on real dm_control physics and EGL rendering (SPEC §1.3)."""
+"""BackgroundDistraction on real dm_control physics and EGL rendering (Stone et al. 2021, Sec. 3.3)."""
 import mujoco
 import numpy as np
 import pytest
@@ -154,3 +154,86 @@ def test_bad_background_arguments():
         background_env([solid_video(RED)], texture_size=1000).reset()
     with pytest.raises(TypeError, match="videos must be None"):
         BackgroundDistraction(42)
+
+
+# ------------------------------------------------------------- reference_blend (the 2021 code's)
+def _sky_faces(physics, transform):
+    """The six faces of the sky texture as the model holds them now."""
+    model, s = physics.model, transform.texture_size
+    adr = int(model.tex_adr[transform._sky])
+    return model.tex_data[adr: adr + 6 * s * s * 3].reshape(6, s, s, 3).copy()
+
+
+def _blended(shown, frame, blend):
+    """The 2021 code's blend: float32, truncated to uint8."""
+    return (np.float32(1 - blend) * shown.astype(np.float32) + np.float32(blend) * frame.astype(np.float32)).astype(np.uint8)
+
+
+def _random_videos(count=3):
+    rng = np.random.default_rng(0)
+    return [rng.integers(0, 256, (5, 32, 32, 3), dtype=np.uint8) for _ in range(count)]
+
+
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_reference_blend_accumulates_over_episodes_as_the_2021_code(dynamic):
+    videos, blend = _random_videos(), 0.3
+    env = background_env(videos, dynamic=dynamic, blend=blend, texture_size=32, reference_blend=True)
+    transform, physics = env.transform[0], physics_of(env)
+    td = env.reset()
+    shown = np.stack(transform._sky_faces)  # the original sky, resized: what the first episode blends onto
+    for episode in range(4):
+        td = env.reset() if episode else td
+        for step in range(3):
+            video, frame = td["distractions", "background"].tolist()
+            np.testing.assert_array_equal(_sky_faces(physics, transform), _blended(shown, videos[video][frame], blend),
+                                          err_msg=f"episode {episode} step {step}")
+            td = env.step(td.set("action", env.action_spec.zero()))["next"]
+        shown = _sky_faces(physics, transform)  # the next episode blends onto the last frame shown
+
+
+def test_reference_blend_is_the_paper_blend_at_beta_1_and_keeps_seeding_and_state():
+    videos = [tinted_video(i) for i in range(3)]
+
+    def run(reference_blend, blend, seed=0):
+        env = background_env(videos, dynamic=True, blend=blend, reference_blend=reference_blend)
+        env.set_seed(seed)
+        zero = lambda td: td.set("action", env.action_spec.zero())  # noqa: E731
+        tds = [env.rollout(4, zero, break_when_any_done=False) for _ in range(3)]  # three episodes
+        return (torch.stack([td["next", "pixels"] for td in tds]),
+                torch.stack([td["next", "distractions", "background"] for td in tds]))
+
+    pixels_paper, state_paper = run(False, 1.0)
+    pixels_ref, _ = run(True, 1.0)
+    assert torch.equal(pixels_paper, pixels_ref)  # β_bg = 1: nothing to accumulate
+    pixels_a, state_a = run(True, 0.2)
+    pixels_b, _ = run(True, 0.2)
+    assert torch.equal(pixels_a, pixels_b)  # same seed, same pixels
+    assert torch.equal(state_a, state_paper)  # the same draws (exposed state): only the sky differs
+    assert not torch.equal(pixels_a, run(False, 0.2)[0])
+
+
+def test_reference_blend_history_restarts_with_the_seed_and_belongs_to_each_env():
+    from torchrl.envs import SerialEnv
+
+    videos, blend = _random_videos(), 0.2
+    env = background_env(videos, blend=blend, texture_size=32, reference_blend=True)
+    env.set_seed(0)
+    first = env.reset()["pixels"]
+    for _ in range(3):
+        env.reset()
+    env.set_seed(0)
+    assert torch.equal(env.reset()["pixels"], first)  # seeding starts again from the original sky
+
+    make = lambda: background_env(videos, blend=blend, texture_size=32, reference_blend=True)  # noqa: E731
+    batched = SerialEnv(2, make)
+    batched.set_seed(0)
+    td = batched.reset()
+    subs = [(e.transform[0], physics_of(e)) for e in batched._envs]
+    shown = [np.stack(t._sky_faces) for t, _ in subs]
+    for episode in range(3):  # each sub-env accumulates over its own episodes only
+        td = batched.reset() if episode else td
+        for i, (transform, physics) in enumerate(subs):
+            video, frame = td["distractions", "background"][i].tolist()
+            expected = _blended(shown[i], videos[video][frame], blend)
+            np.testing.assert_array_equal(_sky_faces(physics, transform), expected, err_msg=f"{episode}, env {i}")
+            shown[i] = expected

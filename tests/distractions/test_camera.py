@@ -1,4 +1,4 @@
-"""CameraDistraction on real dm_control physics and rendering (SPEC §1.1)."""
+"""CameraDistraction on real dm_control physics and rendering (Stone et al. 2021, Sec. 3.1)."""
 import math
 
 import mujoco
@@ -145,7 +145,7 @@ def test_dynamic_step_size_per_control_step(frame_skip):
     steps = np.linalg.norm(np.diff(positions, axis=0), axis=1)
     roll_steps = np.abs(np.diff(poses[:, 3]))
     max_speed, max_roll = 0.4 * scale * radius0 / 4, math.pi * scale / 50
-    # one agent step = frame_skip control steps of at most v_max each (SPEC §1.1, *ref* r0/4 scaling)
+    # one agent step = frame_skip control steps of at most v_max each (the paper's Sec. 3.1, with the 2021 code's r0/4 scaling: docs/paper.md)
     assert steps.max() <= frame_skip * max_speed + 1e-5
     assert roll_steps.max() <= frame_skip * max_roll + 1e-5
     assert np.median(steps) > 0.2 * max_speed  # it really moves, at the right scale

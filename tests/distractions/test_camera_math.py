@@ -1,4 +1,4 @@
-"""The camera math alone (SPEC §1.1): ranges, the velocity random walk, look-at matrices."""
+"""The camera math alone (Stone et al. 2021, Sec. 3.1; docs/paper.md): ranges, the velocity random walk, look-at matrices."""
 import math
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""ColorDistraction on real dm_control models (SPEC §1.2)."""
+"""ColorDistraction on real dm_control models (Stone et al. 2021, Sec. 3.2)."""
 import numpy as np
 import pytest
 import torch
@@ -62,7 +62,7 @@ def test_dynamic_colors_walk_with_the_spec_std_per_control_step():
     steps = np.diff(colors, axis=0)
     low, high = np.clip(x0 - scale, 0, 1), np.clip(x0 + scale, 0, 1)
     interior = (colors[:-1] > low + 0.05) & (colors[:-1] < high - 0.05) & (colors[1:] > low) & (colors[1:] < high)
-    assert np.std(steps[interior]) == pytest.approx(0.03 * scale, rel=0.05)  # N(0, 0.03 β) (SPEC §1.2)
+    assert np.std(steps[interior]) == pytest.approx(0.03 * scale, rel=0.05)  # N(0, 0.03 β) (the paper's Sec. 3.2)
     assert np.all(np.abs(colors - x0) <= scale + 1e-6)
 
 

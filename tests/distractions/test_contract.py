@@ -7,8 +7,8 @@ import torch
 from torchrl.envs import Compose, DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels
-from dcs_test_utils import numbered_video
+from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels, make_env
+from dcs_test_utils import distraction_streams, numbered_video, shared_streams
 
 DISTRACTIONS = {
     "camera": functools.partial(CameraDistraction, 0.3, True),
@@ -133,3 +133,12 @@ def test_physics_and_rewards_are_unchanged(name):
         rewards.append(td["reward"].item())
         ref_rewards.append(ref["reward"].item())
     assert np.array_equal(rewards, ref_rewards)
+
+
+def test_each_distraction_has_its_own_stream():
+    """One seed gives the three distractions three different random streams, each a function of the seed."""
+    streams = distraction_streams(make_env("cartpole", "swingup", benchmark="easy", seed=5))
+    assert sorted(streams) == ["BackgroundDistraction", "CameraDistraction", "ColorDistraction"]
+    assert shared_streams(streams) == []
+    assert distraction_streams(make_env("cartpole", "swingup", benchmark="easy", seed=5)) == streams
+    assert distraction_streams(make_env("cartpole", "swingup", benchmark="easy", seed=6)) != streams

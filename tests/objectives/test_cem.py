@@ -5,7 +5,7 @@ from tensordict import TensorDict
 from torchrl.data import Bounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from dcs_torchrl.agents import make_critic
+from dcs_torchrl.modules import make_critic
 from dcs_torchrl.objectives import CEMActor, cem_maximize
 
 

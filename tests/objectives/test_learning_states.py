@@ -19,12 +19,12 @@ from torchrl.data import LazyTensorStorage, ReplayBuffer
 from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, TransformedEnv
 from torchrl.objectives import SoftUpdate
 
-from dcs_torchrl.agents import ObservationNoise, augmentation_copies, make_critic, make_encoder, make_sac_actor, with_next_keys
+from dcs_torchrl.modules import ObservationNoise, augmentation_copies, make_critic, make_encoder, make_sac_actor, with_next_keys
 from dcs_torchrl.evaluation import EvalResult, evaluate
 from dcs_torchrl.objectives import CEMActor, DrQSACLoss, QTOptLoss
 
-ACTION_REPEAT = 8  # PlaNet benchmark setting for cartpole swingup (SPEC section 3)
-STATE_OF_THE_ART = 850.0  # cartpole swingup, ~the best published returns (SPEC section 5 tables)
+ACTION_REPEAT = 8  # PlaNet benchmark setting for cartpole swingup (the paper's Table 1)
+STATE_OF_THE_ART = 850.0  # cartpole swingup, ~the best published returns (the paper's Table 2)
 METHODS = [(algo, aug) for algo in ("sac", "qtopt") for aug in ("none", "rad", "drq")]
 
 

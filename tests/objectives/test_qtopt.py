@@ -7,7 +7,7 @@ import torch.nn.functional as F
 from torchrl.data import Unbounded
 from torchrl.objectives import SoftUpdate
 
-from dcs_torchrl.agents import ObservationNoise, RandomShift, make_critic, make_encoder, with_next_keys
+from dcs_torchrl.modules import ObservationNoise, RandomShift, make_critic, make_encoder, with_next_keys
 from dcs_torchrl.objectives import QTOptLoss, averaged_cross_entropy, cem_maximize
 
 HIDDEN = 32

@@ -4,7 +4,7 @@ import torch
 from tensordict import TensorDict
 from torchrl.objectives import SACLoss, SoftUpdate
 
-from dcs_torchrl.agents import (
+from dcs_torchrl.modules import (
     ObservationNoise,
     RandomShift,
     make_critic,

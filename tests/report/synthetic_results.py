@@ -15,7 +15,7 @@ ALGO_AUG = {
     "SAC": ("sac", "none"), "SAC+RAD": ("sac", "rad"), "SAC+DrQ": ("sac", "drq"),
     "QT-Opt": ("qtopt", "none"), "QT-Opt+RAD": ("qtopt", "rad"), "QT-Opt+DrQ": ("qtopt", "drq"),
 }
-# The benchmark presets (SPEC §2) for the env dicts of synthetic runs.
+# The benchmark presets (the paper's Sec. 5.3) for the env dicts of synthetic runs.
 PRESETS = {"none": (0.0, 0.0, 0), "easy": (0.1, 0.1, 4), "medium": (0.2, 0.2, 8), "blind": (0.2, 0.2, 8)}
 
 

@@ -39,7 +39,8 @@ def test_opt_in_and_folder(tmp_path):
 def test_backgrounds_of_a_run():
     assert backgrounds({"num_videos": 0}, {"num_videos": 0}) == "none"
     assert backgrounds({"num_videos": 0}, {"num_videos": 60, "background_blend": 0.0}) == "none"
-    assert backgrounds({"num_videos": 0}, {"num_videos": 60, "background_blend": 0.4}) == "stand-in"
+    assert backgrounds({"num_videos": 0}, {"num_videos": 60, "background_blend": 0.4}) == "stand-in v1"  # recorded before versions
+    assert backgrounds({"num_videos": 8, "embedded_videos": 2}, {"num_videos": 60, "embedded_videos": 1}) == "stand-in v1+v2"
     assert backgrounds({"num_videos": 8, "background_dir": "/data/davis"}, {"num_videos": 8, "background_dir": "/data/davis"}) == "folder"
 
 
@@ -54,3 +55,19 @@ def test_report_marks_stand_in_backgrounds_only_where_they_were_used(tmp_path):
     assert "stand-in videos" not in robustness  # camera only: no videos
     benchmarks = [s for s in text.split("## ") if s.lower().startswith("benchmark")][0]
     assert "embedded stand-in videos, not DAVIS 2017" in benchmarks
+
+
+def test_report_says_when_runs_mix_versions_of_the_stand_in_videos():
+    import pandas as pd
+
+    from dcs_torchrl.report.build import stand_in_note
+    from dcs_torchrl.results import with_videos_version
+    from dcs_torchrl.videos import EMBEDDED_VERSION
+
+    shown = {"num_videos": 8, "background_blend": 1.0, "background_dir": None}
+    assert with_videos_version(shown)["embedded_videos"] == EMBEDDED_VERSION  # what every run now records
+    one = pd.DataFrame({"backgrounds": ["stand-in v2", "none"]})
+    assert stand_in_note(one).endswith("(v2)")
+    mixed = pd.DataFrame({"backgrounds": ["stand-in v1", "stand-in v2"]})
+    assert "mix versions of them (v1, v2)" in stand_in_note(mixed)
+    assert stand_in_note(pd.DataFrame({"backgrounds": ["none", "folder"]})) == ""

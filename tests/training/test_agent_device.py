@@ -28,7 +28,7 @@ def _moved_modules(monkeypatch, algo: str):
 
     monkeypatch.setattr(nn.Module, "to", to)
     spec = Bounded(-torch.ones(2), torch.ones(2), shape=(2,))
-    agent = agent_class(algo)(cfg, (9, 32, 32), spec, 4)
+    agent = agent_class(algo)(cfg, (9, 32, 32), spec)
     monkeypatch.undo()
     return agent, {id(m) for m, device in moved if device == agent.device}
 
@@ -55,3 +55,13 @@ def test_cem_bounds_are_buffers_that_follow_the_policy():
     assert any(key.endswith("low") for key in buffers) and any(key.endswith("high") for key in buffers)
     moved = agent.policy.to(torch.float64)
     assert all(b.dtype == torch.float64 for k, b in moved.named_buffers() if k.endswith(("low", "high")))
+
+
+@pytest.mark.parametrize("override, repeat", [([], 8), (["env.action_repeat=2"], 2)])
+def test_qtopt_reward_range_is_the_envs_action_repeat(override, repeat):
+    """QT-Opt normalises values by [0, action repeat] per agent step: the repeat the training env
+    resolves (cartpole swingup's 8, or env.action_repeat)."""
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose("qtopt", overrides=["network.hidden_dim=16", "env.domain=cartpole", "env.task=swingup", *override])
+    agent = agent_class("qtopt")(cfg, (9, 32, 32), Bounded(-torch.ones(1), torch.ones(1), shape=(1,)))
+    assert agent.loss.reward_range == (0.0, float(repeat))

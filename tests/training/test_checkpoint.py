@@ -3,8 +3,13 @@ from __future__ import annotations
 
 import pytest
 import torch
+from hydra import compose, initialize_config_module
+from tensordict import TensorDict
+from torchrl.checkpoint import GlobalRNGState
+from torchrl.data import Bounded
 
-from dcs_torchrl.training import load_latest, save_checkpoint
+from dcs_torchrl.methods import agent_class
+from dcs_torchrl.training import FrameStackReplayBuffer, load_latest, save_checkpoint
 from dcs_torchrl.training.checkpoint import list_checkpoints
 
 
@@ -54,3 +59,22 @@ def test_no_checkpoint(tmp_path):
     assert load_latest(tmp_path / "missing") is None
     (tmp_path / "checkpoint_000000000001.pt.tmp").write_bytes(b"partial")
     assert load_latest(tmp_path) is None
+
+
+@pytest.mark.parametrize("algo", ["sac", "qtopt"])
+def test_a_training_checkpoint_pickles_no_class_of_the_package(tmp_path, algo):
+    """The agent, replay and RNG states are state dicts of tensors and builtins, so a checkpoint loads with
+    ``weights_only=True`` (which refuses any other class): moving or renaming a package module (as
+    ``dcs_torchrl.agents`` -> ``dcs_torchrl.modules``) leaves checkpoints written before loadable."""
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose(algo, overrides=["network.hidden_dim=16", "algo.aug=drq"])
+    agent = agent_class(algo)(cfg, (9, 32, 32), Bounded(-torch.ones(2), torch.ones(2), shape=(2,)))
+    buffer = FrameStackReplayBuffer(8, 3, (3, 32, 32), (2,), batch_size=2)
+    stacks, flags = torch.zeros(4, 9, 32, 32, dtype=torch.uint8), torch.zeros(4, 1, dtype=torch.bool)
+    buffer.extend(TensorDict({"pixels": stacks, "action": torch.zeros(4, 2), "next": {
+        "pixels": stacks, "reward": torch.zeros(4, 1), "done": flags, "terminated": flags}}, [4]))
+    state = {"agent": agent.state_dict(), "buffer": buffer.state_dict(), "counters": {"steps": 4},
+             "rng": GlobalRNGState().state_dict(), "wandb_id": None, "config": {"seed": 0}}
+    path = save_checkpoint(tmp_path, 4, state)
+    loaded = torch.load(path, weights_only=True)
+    assert loaded["agent"]["loss"].keys() == state["agent"]["loss"].keys()

@@ -5,7 +5,9 @@ import pytest
 import torch
 from tensordict import TensorDict
 
+from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.training import FrameStackReplayBuffer
+from dcs_torchrl.training.envs import pixel_env
 
 S, C, H = 3, 3, 6
 
@@ -95,3 +97,38 @@ def test_bad_input_names_the_fix():
     bad["pixels"] = bad["pixels"].float()
     with pytest.raises(TypeError, match="uint8"):
         rb.extend(bad)
+
+
+
+@pytest.fixture(scope="module")
+def time_limited_rollout():
+    """A real cartpole rollout with the recipes' pixel handling whose first episode ends by DM Control's
+    time limit after 10 agent steps (action repeat 100 of its 1000 physics steps), then resets."""
+    env = pixel_env(resolve_settings("cartpole", "swingup", action_repeat=100), frame_stack=S, image_size=H,
+                    render_profile="default", seed=0)
+    torch.manual_seed(0)  # the random actions identify the transitions
+    data = env.rollout(14, break_when_any_done=False)
+    env.close()
+    assert data["next", "done"].squeeze(-1).nonzero().flatten().tolist() == [9]
+    assert not data["next", "terminated"].any()
+    return data
+
+
+@pytest.mark.parametrize("terminated", [False, True], ids=["time_limit", "termination"])
+def test_an_episode_end_reaches_the_loss_as_it_happened(time_limited_rollout, terminated):
+    """The sample hands the loss ``terminated`` as the env set it (a time limit: done but not
+    terminated, so the loss keeps bootstrapping), ``done``, and the stacks around the end: the last
+    transition's next stack is the episode's final one, the next transition starts from the reset stack.
+    (No DM Control task of the paper terminates: the termination case marks the same end terminated.)"""
+    data = time_limited_rollout.clone()
+    data["next", "terminated"][9] = terminated
+    rb = FrameStackReplayBuffer(20, S, (C, H, H), (1,), batch_size=4, generator=torch.Generator().manual_seed(0))
+    rb.extend(data)
+    sample = rb.sample(400)  # every one of the 14 transitions, many times
+    for t in (8, 9, 10):
+        rows = (sample["action"] == data["action"][t].float()).squeeze(-1)
+        assert rows.any(), t
+        expected_end = (t == 9, terminated and t == 9)
+        assert {(bool(d), bool(x)) for d, x in zip(sample["next", "done"][rows], sample["next", "terminated"][rows])} == {expected_end}
+        for key in ("pixels", ("next", "pixels")):
+            assert torch.equal(sample[key][rows], data[key][t].expand_as(sample[key][rows])), (t, key)

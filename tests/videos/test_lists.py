@@ -1,4 +1,4 @@
-"""The official DAVIS 2017 lists and split names (SPEC §1.3)."""
+"""The official DAVIS 2017 lists and split names (Stone et al. 2021, Sec. 3.3; docs/paper.md)."""
 import pytest
 
 from dcs_torchrl.videos import DAVIS17_TRAIN, DAVIS17_VAL, canonical_split

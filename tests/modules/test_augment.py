@@ -7,14 +7,14 @@ from torchrl.data import Bounded, Composite
 from torchrl.envs import Compose, PermuteTransform
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl.agents import (
-    AUGMENTATION_COPIES,
+from dcs_torchrl.modules import (
     ObservationNoise,
     RandomCrop,
     RandomShift,
     augmentation_copies,
     with_next_keys,
 )
+from dcs_torchrl.methods import METHODS
 
 
 def _images(*shape, dtype=torch.uint8, seed=0):
@@ -164,8 +164,8 @@ def test_observation_noise():
 
 
 def test_augmentation_knob():
-    assert AUGMENTATION_COPIES == {"none": 0, "rad": 1, "drq": 2}
     assert [augmentation_copies(a) for a in ("none", "rad", "drq")] == [0, 1, 2]
+    assert {m.aug: m.copies for m in METHODS.values()} == {"none": 0, "rad": 1, "drq": 2}
     with pytest.raises(ValueError, match="unknown augmentation 'crop'"):
         augmentation_copies("crop")
     assert with_next_keys(["pixels", ("a", "b")]) == ["pixels", ("a", "b"), ("next", "pixels"), ("next", "a", "b")]

@@ -13,7 +13,7 @@ from torch import nn
 from torchrl.data import Bounded, Unbounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from dcs_torchrl.agents import (
+from dcs_torchrl.modules import (
     FlatEncoder,
     PixelEncoder,
     QHead,
@@ -177,7 +177,7 @@ def test_compiled_and_channels_last_encoder_match_eager():
 
 
 def test_retain_freed_memory_in_a_fresh_process():
-    code = "from dcs_torchrl.agents.allocator import retain_freed_memory; print(retain_freed_memory())"
+    code = "from dcs_torchrl.modules.allocator import retain_freed_memory; print(retain_freed_memory())"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     expected = "True" if platform.system() == "Linux" and platform.libc_ver()[0] == "glibc" else "False"
     assert out[-1] == expected

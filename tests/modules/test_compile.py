@@ -11,7 +11,7 @@ import pytest
 import torch
 from torch.func import functional_call
 
-from dcs_torchrl.agents import PixelEncoder
+from dcs_torchrl.modules import PixelEncoder
 
 
 @pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None, reason="inductor needs a C++ compiler")

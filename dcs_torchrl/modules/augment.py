@@ -17,7 +17,8 @@ number of leading batch dimensions, channel-first (``[..., C, H, W]``).
 All three are random in training mode only: in eval mode (``transform.eval()``) RandomShift and
 ObservationNoise are the identity and RandomCrop takes the centre crop (RAD's evaluation).
 
-The number of augmented copies K (target) = M (Q-loss) is one knob, :data:`AUGMENTATION_COPIES`:
+The number of augmented copies K (target) = M (Q-loss) is one knob,
+:func:`~dcs_torchrl.methods.augmentation_copies` (defined in :data:`dcs_torchrl.methods.AUGMENTATIONS`):
 ``"none"`` -> 0 (no augmentation), ``"rad"`` -> 1, ``"drq"`` -> 2 (Stone et al. 2021, section 4:
 "DrQ with K = M in {0, 1, 2}").
 """
@@ -32,35 +33,15 @@ from torchrl.data.tensor_specs import Bounded, TensorSpec, Unbounded
 from torchrl.envs.transforms import Transform
 
 from dcs_torchrl._private_api import set_missing_tolerance
-from dcs_torchrl.methods import AUGMENTATIONS
+from dcs_torchrl.methods import augmentation_copies
 
 __all__ = [
-    "AUGMENTATION_COPIES",
     "ObservationNoise",
     "RandomCrop",
     "RandomShift",
     "augmentation_copies",
     "with_next_keys",
 ]
-
-#: Augmented copies K = M of each augmentation setting (Stone et al. 2021, section 4).
-AUGMENTATION_COPIES: dict[str, int] = {aug: copies for aug, (_, copies) in AUGMENTATIONS.items()}
-
-
-def augmentation_copies(aug: str) -> int:
-    """The number of augmented copies K = M for an augmentation setting.
-
-    Args:
-        aug (str): ``"none"``, ``"rad"`` or ``"drq"``.
-
-    Examples:
-        >>> augmentation_copies("drq")
-        2
-    """
-    if aug not in AUGMENTATION_COPIES:
-        raise ValueError(f"unknown augmentation {aug!r}; choose one of {sorted(AUGMENTATION_COPIES)}.")
-    return AUGMENTATION_COPIES[aug]
-
 
 def with_next_keys(keys: Sequence[NestedKey]) -> list[NestedKey]:
     """``keys`` followed by their ``("next", key)`` counterparts: the keys a loss augments.

@@ -1,17 +1,16 @@
 """Networks and image augmentations of the paper's baselines (Stone et al. 2021, section 4).
 
->>> from dcs_torchrl.agents import RandomShift, make_encoder, make_sac_actor, make_critic
+>>> from dcs_torchrl.modules import RandomShift, make_encoder, make_sac_actor, make_critic
 """
-from dcs_torchrl.agents.allocator import retain_freed_memory
-from dcs_torchrl.agents.augment import (
-    AUGMENTATION_COPIES,
+from dcs_torchrl.modules.allocator import retain_freed_memory
+from dcs_torchrl.modules.augment import (
     ObservationNoise,
     RandomCrop,
     RandomShift,
     augmentation_copies,
     with_next_keys,
 )
-from dcs_torchrl.agents.networks import (
+from dcs_torchrl.modules.networks import (
     FlatEncoder,
     PixelEncoder,
     QHead,
@@ -26,7 +25,6 @@ from dcs_torchrl.agents.networks import (
 )
 
 __all__ = [
-    "AUGMENTATION_COPIES",
     "FlatEncoder",
     "ObservationNoise",
     "PixelEncoder",

@@ -5,7 +5,7 @@ of the update. With glibc's defaults, blocks above the mmap threshold (at most 3
 of 512 pixel observations makes ~100 MB activations) are ``mmap``-ed and ``munmap``-ed every
 time, and freed heap tops are trimmed: every update page-faults its whole working set back in,
 and the kernel zeroes every page. On this project's 2-core machines that is most of the time of
-a pixel update (DESIGN.md: the reference DrQ update takes ~13 s at batch 512 with glibc, ~6 s
+a pixel update (docs/performance.md: the reference DrQ update takes ~13 s at batch 512 with glibc, ~6 s
 with jemalloc and its page decay off).
 
 :func:`retain_freed_memory` gets the same effect without preloading another allocator: it calls

@@ -1,0 +1,71 @@
+"""Wall time of `python -m dcs_torchrl.robustness` on the shipped agent, as a user runs it.
+
+    python benchmarks/robustness_speed.py                       # the quick and the full sweep, 2 workers
+    python benchmarks/robustness_speed.py --sweeps quick --workers 1 2 --keep /tmp/robustness
+
+Sweeps (the shipped SAC+RAD cartpole swingup agent):
+- quick: the command's defaults, 6 intensities x 3 axes, static, 10 episodes per point;
+- full: the paper's experiment 1 for one agent, 11 intensities x 3 axes x static and dynamic,
+  20 episodes per point.
+Each run starts from an empty output directory (a temporary one, or below --keep, which keeps
+the results: the full sweep is the shipped agent's experiment-1 data). Time the machine idle:
+nothing else running. Prints the CPU model beside the wall times.
+"""
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+AGENT = "sac_rad_cartpole_swingup"
+ELEVEN = [f"{0.1 * i:.1f}" for i in range(11)]
+SWEEPS = {
+    "quick": [],  # the command's defaults
+    "full": ["--intensities", *ELEVEN, "--setting", "both", "--episodes", "20"],
+}
+
+
+def cpu_model() -> str:
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown CPU"
+    names = [line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")]
+    return names[0] if names else "unknown CPU"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sweeps", nargs="+", default=list(SWEEPS), choices=list(SWEEPS))
+    parser.add_argument("--workers", nargs="+", type=int, default=[2])
+    parser.add_argument("--keep", default=None, help="keep each run's output below this directory")
+    args = parser.parse_args()
+    rows = []
+    for sweep in args.sweeps:
+        for workers in args.workers:
+            parent = Path(args.keep) if args.keep else Path(tempfile.mkdtemp())
+            out = parent / f"{sweep}-workers{workers}"
+            if out.exists():
+                raise SystemExit(f"{out} exists: the benchmark times a sweep from scratch; remove it or choose another --keep.")
+            command = [sys.executable, "-m", "dcs_torchrl.robustness", AGENT, "--workers", str(workers),
+                       "--out", str(out), "--no-progress", *SWEEPS[sweep]]
+            print("$", " ".join(command[1:]), flush=True)
+            start = time.perf_counter()
+            subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+            seconds = time.perf_counter() - start
+            rows.append((sweep, workers, seconds))
+            print(f"{sweep}, {workers} worker(s): {seconds:.0f} s", flush=True)
+            if not args.keep:
+                shutil.rmtree(parent)
+    print(f"\nCPU: {cpu_model()}\n")
+    print("| sweep | workers | wall time |\n|---|--:|--:|")
+    for sweep, workers, seconds in rows:
+        print(f"| {sweep} | {workers} | {seconds / 60:.1f} min |")
+
+
+if __name__ == "__main__":
+    main()

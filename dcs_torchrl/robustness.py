@@ -1,0 +1,327 @@
+"""An agent's robustness curves: its score as each distraction grows (the paper's Fig. 4, one agent).
+
+    python -m dcs_torchrl.robustness sac_rad_cartpole_swingup --out robustness
+    python -m dcs_torchrl.robustness <run or exported agent directory> --setting both --episodes 20 \\
+        --intensities 0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1
+
+Each point sets one distraction alone over the agent's training env (camera β_cam, colour β_rgb,
+or background blend β_bg with b = 60 videos, the paper's experiment 1, Sec. 5.1), static or
+dynamic, and runs the recipes' final evaluation there (:meth:`dcs_torchrl.pretrained.Pretrained.evaluate`:
+the deterministic policy, ``--episodes`` episodes in one env seeded as the training run's final
+evaluation). Points are spread over ``--workers`` processes, one point per process at a time, so
+every episode's return is the one a single-env evaluation gives. Intensity 0 is the same
+undistracted env on every axis and is evaluated once.
+
+The output directory gets ``points/`` (one JSON file per evaluated point: settings, returns),
+``robustness.csv`` (a row per point), ``robustness.md`` (the half-score intensity per axis and
+the curves as a table) and ``robustness.png``. Run again, it evaluates only the points it does
+not hold yet. :func:`robustness_sweep` does the same for any TorchRL policy and env factory.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import json
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from dcs_torchrl.training.rundir import write_json_atomic
+
+__all__ = ["AXES", "Point", "sweep_points", "robustness_sweep", "sweep_agent", "write_outputs", "main"]
+
+#: The command's axis names -> the sweep axes of results.json and the report
+#: (:data:`dcs_torchrl.report.experiments.SWEEP_AXES` says which make_env settings each sets).
+AXES = {"camera": "camera", "color": "color", "background": "background_blend"}
+QUICK_INTENSITIES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
+SETTINGS = {"static": (False,), "dynamic": (True,), "both": (False, True)}
+
+
+@dataclass(frozen=True)
+class Point:
+    """One point of a sweep: a distraction axis at an intensity, static or dynamic.
+
+    ``reference_blend`` (background axis only) blends as the authors' 2021 code does
+    (:class:`dcs_torchrl.BackgroundDistraction`).
+    """
+
+    axis: str
+    value: float
+    dynamic: bool
+    reference_blend: bool = False
+
+    def overrides(self, background_dir: str | None = None, num_videos: int = 60) -> dict:
+        """The make_env settings of this point (none at intensity 0: the undistracted env);
+        ``background_dir`` is the background axis' video folder (``None``: the embedded videos),
+        ``num_videos`` how many of its videos it uses (the paper: b = 60)."""
+        from dcs_torchrl.report.experiments import SWEEP_AXES
+
+        if self.value == 0:
+            return {}
+        axis = SWEEP_AXES[AXES[self.axis]]
+        out = {axis.key: float(self.value), **axis.fixed, "dynamic": self.dynamic}
+        if "num_videos" in out:  # b = 60 (the paper's Sec. 5.1), or all of a folder that holds fewer
+            out["num_videos"] = num_videos
+        if self.reference_blend:
+            out["reference_blend"] = True
+        if background_dir is not None and self.axis == "background":
+            out["background_dir"] = os.fspath(background_dir)
+        return out
+
+    def key(self, background_dir: str | None = None, num_videos: int = 60) -> str:
+        """The same for every point of the same env (all points at intensity 0 share one)."""
+        return json.dumps(self.overrides(background_dir, num_videos), sort_keys=True)
+
+    @property
+    def label(self) -> str:
+        blend = "-2021blend" if self.reference_blend else ""
+        return f"{self.axis}{blend}-{'dynamic' if self.dynamic else 'static'}-{self.value:g}"
+
+
+def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float] = QUICK_INTENSITIES,
+                 setting: str = "static", reference_blend: bool | str = False) -> list[Point]:
+    """The points of a sweep, axis by axis (``reference_blend``: ``False``, ``True`` or ``"both"``,
+    for the background axis).
+
+    Examples:
+        >>> [p.label for p in sweep_points(["camera"], [0.0, 0.5], "both")]
+        ['camera-static-0', 'camera-static-0.5', 'camera-dynamic-0', 'camera-dynamic-0.5']
+    """
+    unknown = sorted(set(axes) - set(AXES))
+    if unknown:
+        raise ValueError(f"unknown axes {unknown}: choose among {list(AXES)}.")
+    if setting not in SETTINGS:
+        raise ValueError(f"unknown setting {setting!r}: choose one of {list(SETTINGS)}.")
+    values = [float(v) for v in intensities]
+    bad = [v for v in values if not 0.0 <= v <= 1.0]
+    if bad or not values:
+        raise ValueError(f"intensities must be in [0, 1] (at least one), got {values}.")
+    blends = {False: (False,), True: (True,), "both": (False, True)}[reference_blend]
+    return [Point(axis, value, dynamic, blend) for axis in axes for blend in (blends if axis == "background" else (False,))
+            for dynamic in SETTINGS[setting] for value in values]
+
+
+def _progress(items, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(items, unit="point", disable=not enabled or not items, desc="robustness")
+
+
+def robustness_sweep(policy, make_env: Callable[..., object], points: Sequence[Point], *, episodes: int = 10,
+                     seed: int = 0, progress: bool = False) -> list[dict]:
+    """Evaluates any TorchRL ``policy`` at every point, in this process.
+
+    Args:
+        policy: a TensorDict module writing ``"action"`` (run deterministically).
+        make_env: called as ``make_env(**overrides)`` with a point's make_env settings
+            (``camera_scale``, ``dynamic``, ...; none at intensity 0), returns the env to evaluate.
+        points: :func:`sweep_points`.
+
+    Keyword Args:
+        episodes: episodes per point, in one env seeded with ``seed``
+            (:func:`dcs_torchrl.evaluation.evaluate`).
+
+    Returns:
+        one row per point (:func:`write_outputs` reads them).
+
+    Examples:
+        >>> import dcs_torchrl as dcs
+        >>> def make_env(**overrides):
+        ...     return dcs.make_env("cartpole", "balance", height=32, width=32, **overrides)
+        >>> policy = lambda td: td.set("action", td["pixels"].new_zeros(1).float())
+        >>> rows = robustness_sweep(policy, make_env, sweep_points(["color"], [0.0, 1.0]), episodes=1)
+        >>> [(r["axis"], r["value"], r["episodes"]) for r in rows]
+        [('color', 0.0, 1), ('color', 1.0, 1)]
+    """
+    from dcs_torchrl.evaluation import evaluate
+
+    def run(overrides: dict) -> dict:
+        env = make_env(**overrides)
+        try:
+            return evaluate(env, policy, episodes, seed=seed).to_dict()
+        finally:
+            env.close(raise_if_closed=False)
+
+    done: dict[str, dict] = {}
+    for point in _progress(points, progress):
+        if point.key() not in done:
+            done[point.key()] = run(point.overrides())
+    return [_row(p, done[p.key()]) for p in points]
+
+
+def _row(point: Point, result: dict, **extra) -> dict:
+    return {**extra, **asdict(point), "setting": "dynamic" if point.dynamic else "static",
+            "mean": result["mean"], "stderr": result["stderr"], "episodes": result["episodes"],
+            "returns": result["returns"]}
+
+
+# ------------------------------------------------------------------ a trained agent, in workers
+_WORKER_AGENT = None
+
+
+def _start_worker(agent: str, threads: int) -> None:
+    import torch
+
+    from dcs_torchrl.pretrained import load_pretrained
+
+    global _WORKER_AGENT
+    torch.set_num_threads(threads)
+    _WORKER_AGENT = load_pretrained(agent)
+
+
+def _evaluate_in_worker(overrides: dict, episodes: int) -> dict:
+    return _WORKER_AGENT.evaluate(episodes, **overrides).to_dict()
+
+
+def _videos_version(overrides: dict) -> int | None:
+    """The embedded videos' version if a point shows them (points on older videos are evaluated again)."""
+    from dcs_torchrl.videos import EMBEDDED_VERSION
+
+    return EMBEDDED_VERSION if overrides.get("background_blend") and not overrides.get("background_dir") else None
+
+
+def _agent_identity(directory: Path, results: dict) -> dict:
+    from dcs_torchrl.training.checkpoint import list_checkpoints
+
+    _, newest = list_checkpoints(directory / "checkpoints")[-1]
+    digest = Path(f"{newest}.sha256").read_text().split()[0]
+    return {key: results[key] for key in ("method", "domain", "task", "seed", "steps")} | {"checkpoint_sha256": digest}
+
+
+def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
+                workers: int = 1, background_dir: str | os.PathLike | None = None, progress: bool = True) -> list[dict]:
+    """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
+
+    Each evaluated point is written to ``out/points/<label>.json`` as soon as it is done; points
+    already there (same agent, episodes and env) are not evaluated again. ``workers`` processes
+    each evaluate whole points. Returns the rows of :func:`write_outputs`.
+    """
+    from dcs_torchrl.pretrained import _results, agent_directory
+
+    directory = agent_directory(agent)
+    results = _results(directory)
+    identity = _agent_identity(directory, results)
+    if episodes < 1 or workers < 1:
+        raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
+    if background_dir is not None:
+        background_dir = os.fspath(Path(background_dir).expanduser())
+        if not Path(background_dir).is_dir():
+            raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
+                                    "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
+    from dcs_torchrl.distractions.background import as_video_source
+
+    # b = 60 videos (the paper's, Sec. 5.1), or all of a folder that holds fewer
+    num_videos = 60 if background_dir is None else min(60, len(as_video_source(background_dir, "train")))
+    stored = Path(out) / "points"
+    stored.mkdir(parents=True, exist_ok=True)
+    done: dict[str, dict] = {}
+    for path in sorted(stored.glob("*.json")):
+        record = json.loads(path.read_text())
+        if record["agent"] != identity:
+            raise FileExistsError(f"{out} holds points of another agent ({record['agent']}); nothing was changed: "
+                                  "choose another --out for this one.")
+        if record["episodes"] == episodes and record.get("embedded_videos") == _videos_version(record["overrides"]):
+            done[record["key"]] = record["eval"]
+
+    todo = {p.key(background_dir, num_videos): p.overrides(background_dir, num_videos) for p in points}
+    todo = {key: overrides for key, overrides in todo.items() if key not in done}
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    bar = _progress(list(todo), progress)
+    with ProcessPoolExecutor(min(workers, max(1, len(todo))), mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_start_worker, initargs=(os.fspath(directory), threads)) as pool:
+        futures = {pool.submit(_evaluate_in_worker, overrides, episodes): key for key, overrides in todo.items()}
+        for future in as_completed(futures):
+            key = futures[future]
+            done[key] = future.result()
+            record = {"agent": identity, "key": key, "overrides": todo[key], "episodes": episodes,
+                      "embedded_videos": _videos_version(todo[key]), "eval": done[key]}
+            name = hashlib.sha256(f"{key}|{episodes}".encode()).hexdigest()[:16]
+            write_json_atomic(stored / f"{name}.json", record)
+            bar.update(1)
+    bar.close()
+    who = {k: identity[k] for k in ("method", "domain", "task", "seed")}
+    return [_row(p, done[p.key(background_dir, num_videos)], **who) for p in points]
+
+
+# --------------------------------------------------------------------------------- outputs
+CSV_COLUMNS = ("method", "domain", "task", "seed", "axis", "setting", "reference_blend", "value", "mean", "stderr", "episodes")
+
+
+def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "") -> dict[str, Path]:
+    """``robustness.csv``, ``robustness.md`` (half-score intensity per axis, curves) and
+    ``robustness.png`` (one panel per axis, as the report's robustness figure) in ``out``."""
+    import pandas as pd
+
+    from dcs_torchrl.report.curves import BLEND_2021, blend_suffix, half_text, half_score_table
+    from dcs_torchrl.report.figures import curves_figure
+    from dcs_torchrl.report.markdown import fmt_score, md_table
+    from dcs_torchrl.report.tables import setting_name
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"csv": out / "robustness.csv", "md": out / "robustness.md", "png": out / "robustness.png"}
+    with open(paths["csv"], "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CSV_COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    method = rows[0].get("method", "policy") if rows else "policy"
+    curves = pd.DataFrame.from_records([
+        {"experiment": "robustness", "axis": AXES[r["axis"]], "eval_split": "train", "dynamic": r["dynamic"],
+         "method": method, "value": r["value"], "mean": r["mean"], "stderr": r["stderr"], "n": 1, "n_tasks": 1,
+         "blend": BLEND_2021 if r["reference_blend"] else "paper"} for r in rows])
+    half = half_score_table(curves)
+    half_rows = [[r.axis + blend_suffix(r.blend), setting_name(r.dynamic), fmt_score(r.score_at_0),
+                  half_text(r), r.paper or "—"] for r in half.itertuples()]
+    point_rows = [[r["axis"] + (" (2021 blend)" if r["reference_blend"] else ""), r["setting"], f"{r['value']:g}",
+                   fmt_score(r["mean"], r["stderr"]), str(r["episodes"])] for r in rows]
+    text = [f"# Robustness of {title or method}", "",
+            "## Where the score falls to half", "",
+            md_table(["axis", "setting", "score at 0", "half at", "paper (top methods)"], half_rows), "",
+            "`half at`: the first intensity whose mean return is at most half the return at 0; "
+            "`> x`: not within the sweep (up to x). The paper's values are over six tasks and 100 episodes.", "",
+            "## Every point (mean ± s.e. over episodes)", "",
+            md_table(["axis", "setting", "intensity", "return", "episodes"], point_rows), ""]
+    paths["md"].write_text("\n".join(text))
+    curves_figure(curves, "robustness", paths["png"], note=title, spread="mean ± s.e. over episodes")
+    return paths
+
+
+def main(argv=None) -> dict[str, Path]:
+    parser = argparse.ArgumentParser(
+        prog="python -m dcs_torchrl.robustness",
+        description="An agent's score as each distraction grows: one distraction at a time, at each intensity.")
+    parser.add_argument("agent", help="a shipped agent's name (e.g. sac_rad_cartpole_swingup), an exported agent "
+                                      "or a finished training run directory")
+    parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES))
+    parser.add_argument("--intensities", nargs="+", type=float, default=list(QUICK_INTENSITIES), metavar="BETA")
+    parser.add_argument("--setting", default="static", choices=list(SETTINGS))
+    parser.add_argument("--episodes", type=int, default=10, help="episodes per point (the paper: 100)")
+    parser.add_argument("--reference-blend", nargs="?", const="on", default="off", choices=["off", "on", "both"],
+                        help="background blend as the authors' 2021 code (accumulates over an env's episodes); "
+                             "'both': a curve of each")
+    parser.add_argument("--background-dir", default=None, help="DAVIS 2017 JPEGImages/480p or a folder of videos "
+                                                              "(default: the embedded stand-in videos)")
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes, a point each")
+    parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>)")
+    parser.add_argument("--no-progress", action="store_true")
+    args = parser.parse_args(argv)
+    out = Path(args.out) if args.out else Path("robustness") / Path(args.agent).name
+    blend = {"off": False, "on": True, "both": "both"}[args.reference_blend]
+    points = sweep_points(args.axes, args.intensities, args.setting, blend)
+    started = time.time()
+    rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
+                       background_dir=args.background_dir, progress=not args.no_progress)
+    paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "
+                                           f"(seed {rows[0]['seed']}), {args.episodes} episodes per point")
+    print(paths["md"].read_text().split("## Every point")[0].rstrip())
+    print(f"\n{len(points)} points in {time.time() - started:.0f} s; wrote {', '.join(str(p) for p in paths.values())}")
+    return paths
+
+
+if __name__ == "__main__":
+    main()

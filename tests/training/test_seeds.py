@@ -1,0 +1,78 @@
+"""The recipes' seeds: every worker and distraction its own stream, evaluation apart from training.
+
+The batched envs are built by the recipes' own code (:func:`make_pixel_env`, :class:`Workspace`)
+with their workers in this process, so that each worker's env can be looked at: ``SerialEnv``
+seeds its workers as ``ParallelEnv`` does (each the seed the previous one's ``set_seed`` returns).
+"""
+import pytest
+from hydra import compose, initialize_config_module
+from omegaconf import OmegaConf
+from torchrl.envs import DMControlEnv, SerialEnv
+
+import dcs_torchrl.training.envs as training_envs
+from dcs_torchrl.envs import resolve_settings
+from dcs_torchrl.methods import agent_class
+from dcs_torchrl.training import RunDirectory
+from dcs_torchrl.training.envs import close_env, make_pixel_env
+from dcs_torchrl.training.loop import Workspace
+from dcs_test_utils import distraction_streams, shared_streams
+
+
+@pytest.fixture
+def workers_in_process(monkeypatch):
+    monkeypatch.setattr(training_envs, "ParallelEnv", lambda num_workers, make, **_: SerialEnv(num_workers, make))
+
+
+@pytest.fixture
+def physics_seeds(monkeypatch):
+    """Every seed given to a DM Control env's physics, as ``(env, seed)`` in order."""
+    seeds = []
+    original = DMControlEnv._set_seed
+
+    def recording(self, seed):
+        seeds.append((self, seed))
+        return original(self, seed)
+
+    monkeypatch.setattr(DMControlEnv, "_set_seed", recording)
+    return seeds
+
+
+def _workers(env) -> list:
+    """The per-worker suite envs of a batched pixel env (in-process workers)."""
+    return list(env.base_env._envs)
+
+
+def test_every_worker_and_distraction_draws_its_own_stream(workers_in_process):
+    settings = resolve_settings("cartpole", "swingup", benchmark="easy")
+    env = make_pixel_env(settings, num_workers=2, seed=5, image_size=16)
+    try:
+        streams = {(f"worker {i}", name): numbers for i, worker in enumerate(_workers(env))
+                   for name, numbers in distraction_streams(worker).items()}
+    finally:
+        close_env(env)
+    assert len(streams) == 6
+    assert shared_streams(streams) == []
+
+
+def test_evaluation_seeds_are_disjoint_from_the_training_seeds(tmp_path, workers_in_process, physics_seeds):
+    """The seeds the training workers get, against every seed an evaluation worker gets: at its
+    construction, at a periodic evaluation and at the final one (short episodes: action repeat 100)."""
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose("sac", overrides=[
+            "seed=3", "collector.num_workers=2", "eval.num_workers=2", "pixels.image_size=32", "env.action_repeat=100",
+            "network.hidden_dim=16", "replay_buffer.size=16", "algo.batch_size=4", "eval.episodes=2",
+            "eval.periodic_episodes=2", "eval.video=false", "progress=false",
+        ])
+    run = RunDirectory(tmp_path / "run", OmegaConf.to_container(cfg, resolve=True))
+    run.claim()
+    with Workspace(cfg, agent_class("sac"), run) as workspace:
+        train_envs = [worker.base_env for worker in _workers(workspace.env)]
+        eval_envs = [worker.base_env for worker in _workers(workspace.eval_env)]
+        workspace.resume()
+        workspace.counters["steps"] = 7  # mid-training: frames = 700
+        workspace._evaluate_periodically()
+        workspace.finish()
+    seeds_of = lambda envs: [seed for env, seed in physics_seeds if seed is not None and any(env is e for e in envs)]  # noqa: E731
+    train, evaluation = seeds_of(train_envs), seeds_of(eval_envs)
+    assert len(set(train)) == 2 and len(evaluation) == 6  # each eval worker: construction, periodic, final
+    assert set(train) & set(evaluation) == set()

@@ -1,9 +1,14 @@
-"""The paper's Figure 1: six tasks at increasing distraction difficulty.
+"""The paper's Figure 1: six tasks at increasing distraction difficulty; and the background blend.
 
     python -m dcs_torchrl.gallery --out gallery.png [--size 96] [--seed 0] [--background-dir DIR]
+    python -m dcs_torchrl.gallery --blends 0 0.1 0.2 0.5 1 --out blend.png
 
 Rows are the six tasks; columns are difficulty 0, 0.1, ..., 1: camera and colour scale
 in steps of 0.1, and 0, 1, 2, 4, ... background videos (doubling, capped at 60).
+
+With ``--blends``: cartpole swingup's view at each background blend β_bg (b = 60 videos,
+static), a row per seed as the paper describes the blend, and a row per seed as the 2021 code
+shows it after ``--episodes`` earlier episodes of the same env (``reference_blend``).
 """
 from __future__ import annotations
 
@@ -63,6 +68,36 @@ def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0) 
     return np.concatenate(rows, axis=0)
 
 
+def blend_view(blend: float, size: int, seed: int, background_dir=None, reference_blend: bool = False,
+               episodes: int = 0, domain: str = "cartpole", task: str = "swingup") -> np.ndarray:
+    """The first frame of an episode at background blend ``blend`` (b = 60, static), after
+    ``episodes`` earlier episodes of the same env (which matter with ``reference_blend`` only)."""
+    env = make_env(domain, task, num_videos=60, background_blend=blend, background_dir=background_dir,
+                   reference_blend=reference_blend, height=size, width=size, seed=seed)
+    for _ in range(episodes):  # static: an episode shows the frame its reset drew
+        env.reset()
+    frame = env.reset()["pixels"].numpy()
+    env.close()
+    return frame
+
+
+def blend_figure(blends, size: int = 168, seeds=(0, 1), background_dir=None, episodes: int = 20) -> np.ndarray:
+    """Rows: per seed, the paper's blend and the 2021 code's after ``episodes`` episodes."""
+    header = [_label(size, f"blend {b:g}") for b in blends]
+    rows = [np.concatenate([_label(150, "")] + header, axis=1)]
+    for reference in (False, True):
+        for seed in seeds:
+            frames = [blend_view(b, size, seed, background_dir, reference, episodes if reference else 0) for b in blends]
+            name = np.full((size, 150, 3), 255, np.uint8)
+            words = ([f"2021 code, seed {seed}", f"after {episodes} episodes"] if reference
+                     else [f"paper, seed {seed}"])
+            for i, word in enumerate(words):
+                cv2.putText(name, word, (3, size // 2 + 14 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1,
+                            cv2.LINE_AA)
+            rows.append(np.concatenate([name] + frames, axis=1))
+    return np.concatenate(rows, axis=0)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description="Write the paper's Figure 1 for this suite.")
     parser.add_argument("--out", default="gallery.png", help="PNG file to write (refuses to overwrite without --force)")
@@ -71,10 +106,16 @@ def main(argv=None) -> None:
     parser.add_argument("--steps", type=int, default=10, help="random actions before each snapshot")
     parser.add_argument("--background-dir", default=None, help="DAVIS JPEGImages/480p folder (default: embedded videos)")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    parser.add_argument("--blends", nargs="+", type=float, default=None, metavar="BETA",
+                        help="instead: cartpole's view at these background blends, the paper's and the 2021 code's")
+    parser.add_argument("--episodes", type=int, default=20, help="with --blends: earlier episodes of the 2021 code's env")
     args = parser.parse_args(argv)
     if os.path.exists(args.out) and not args.force:
         parser.error(f"{args.out} exists; pass --force to overwrite it or choose another --out")
-    image = gallery(args.size, args.seed, args.background_dir, args.steps)
+    if args.blends is not None:
+        image = blend_figure(args.blends, 2 * args.size, (args.seed, args.seed + 1), args.background_dir, args.episodes)
+    else:
+        image = gallery(args.size, args.seed, args.background_dir, args.steps)
     if not cv2.imwrite(args.out, image[..., ::-1]):
         parser.error(f"could not write {args.out}")
     print(f"wrote {args.out} ({image.shape[1]}x{image.shape[0]})")

@@ -63,15 +63,18 @@ class Point:
 
         if self.value == 0:
             return {}
-        axis = SWEEP_AXES[AXES[self.axis]]
+        axis = SWEEP_AXES[self.sweep_axis]
         out = {axis.key: float(self.value), **axis.fixed, "dynamic": self.dynamic}
         if "num_videos" in out:  # b = 60 (the paper's Sec. 5.1), or all of a folder that holds fewer
             out["num_videos"] = num_videos
-        if self.reference_blend:
-            out["reference_blend"] = True
         if background_dir is not None and self.axis == "background":
             out["background_dir"] = os.fspath(background_dir)
         return out
+
+    @property
+    def sweep_axis(self) -> str:
+        """The axis of results.json and the report (the 2021 code's blend is its own axis there)."""
+        return "background_blend_2021" if self.reference_blend else AXES[self.axis]
 
     def key(self, background_dir: str | None = None, num_videos: int = 60) -> str:
         """The same for every point of the same env (all points at intensity 0 share one)."""
@@ -165,6 +168,10 @@ _WORKER_AGENT = None
 
 
 def _start_worker(agent: str, threads: int) -> None:
+    # Each worker gets its share of the cores, for torch and for Mesa's llvmpipe render threads
+    # (read when the first GL context is made; without it the workers' renders contend: see
+    # docs/performance.md). A user's LP_NUM_THREADS is kept.
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))
     import torch
 
     from dcs_torchrl.pretrained import load_pretrained
@@ -287,7 +294,8 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "")
             "## Every point (mean ± s.e. over episodes)", "",
             md_table(["axis", "setting", "intensity", "return", "episodes"], point_rows), ""]
     paths["md"].write_text("\n".join(text))
-    curves_figure(curves, "robustness", paths["png"], note=title, spread="mean ± s.e. over episodes")
+    curves_figure(curves, "robustness", paths["png"], note=title, spread="mean ± s.e. over episodes",
+                  axes_shown=[AXES[axis] for axis in AXES if any(r["axis"] == axis for r in rows)])
     return paths
 
 
@@ -316,8 +324,9 @@ def main(argv=None) -> dict[str, Path]:
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
                        background_dir=args.background_dir, progress=not args.no_progress)
+    videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "
-                                           f"(seed {rows[0]['seed']}), {args.episodes} episodes per point")
+                                           f"(seed {rows[0]['seed']}), {args.episodes} episodes per point{videos}")
     print(paths["md"].read_text().split("## Every point")[0].rstrip())
     print(f"\n{len(points)} points in {time.time() - started:.0f} s; wrote {', '.join(str(p) for p in paths.values())}")
     return paths

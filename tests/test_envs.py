@@ -80,7 +80,7 @@ def test_resolved_settings_are_plain_data():
         "domain": "walker", "task": "walk", "benchmark": "hard", "dynamic": True,
         "camera_scale": 0.3, "color_scale": 0.3, "num_videos": 60, "background_blend": 1.0,
         "blind": False, "background_split": "train", "background_dir": None, "ground_alpha": 1.0,
-        "action_repeat": 2, "camera_id": 0,
+        "action_repeat": 2, "camera_id": 0, "reference_blend": False, "texture_size": 256,
     }
     assert resolve_settings("walker", "walk", benchmark="hard", background_split="val").num_videos == 30
 

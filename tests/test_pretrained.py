@@ -66,3 +66,14 @@ def test_export_refuses_to_overwrite(tmp_path):
 
     with pytest.raises(FileExistsError, match="nothing is overwritten"):
         export_policy(AGENT, AGENT)
+
+
+def test_shipped_agents_load_by_name_and_bad_names_say_which_exist():
+    from dcs_torchrl.pretrained import agent_directory, shipped_agents
+
+    assert shipped_agents()["sac_rad_cartpole_swingup"].resolve() == AGENT.resolve()
+    assert agent_directory("sac_rad_cartpole_swingup").resolve() == AGENT.resolve()
+    with pytest.raises(FileNotFoundError, match="sac_rad_cartpole_swingup"):
+        agent_directory("sac_rad_cartpole_swingup_v2")
+    agent = load_pretrained("sac_rad_cartpole_swingup", final=True)
+    assert agent.results["steps"] == 100_000 and agent.eval_seed == 10_000

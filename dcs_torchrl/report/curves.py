@@ -20,12 +20,23 @@ from dcs_torchrl.report.tables import setting_name
 
 __all__ = ["BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "half_score_table", "half_score_markdown", "curves_markdown"]
 
-CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks")
+CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks",
+                 "blend")
 
 
-def panel_runs(runs: pd.DataFrame, experiment: str, panel: Panel) -> pd.DataFrame:
-    """The runs of one panel of an experiment."""
-    return select(runs, experiment=experiment, axis=panel.axis, eval_split=panel.eval_split)
+#: The ``blend`` of a curve whose background blend accumulates over episodes as in the 2021 code
+#: (``reference_blend``); curves without a ``blend`` column, or with ``"paper"``, blend as the paper says.
+BLEND_2021 = "2021 code"
+
+
+def blend_suffix(blend: str = "paper") -> str:
+    """What a row label adds for a curve of the 2021 code's blend."""
+    return " (2021 blend)" if blend == BLEND_2021 else ""
+
+
+def panel_runs(runs: pd.DataFrame, experiment: str, panel: Panel, axis: str | None = None) -> pd.DataFrame:
+    """The runs of one panel of an experiment (``axis``: another axis drawn in it, e.g. its ``blend_axis``)."""
+    return select(runs, experiment=experiment, axis=axis or panel.axis, eval_split=panel.eval_split)
 
 
 def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
@@ -38,21 +49,26 @@ def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
     Returns:
         columns :data:`CURVE_COLUMNS`, sorted by panel, setting, method, value; the mean is over
         every task found in the experiment (``n_tasks``), so a point lacking a task is absent.
+        A panel's ``blend_axis`` runs are its curves with ``blend`` :data:`BLEND_2021`, under the
+        panel's axis.
     """
     tasks = tasks_of(select(runs, experiment=experiment))
     records = []
     for panel in EXPERIMENTS[experiment]:
-        rows = panel_runs(runs, experiment, panel)
-        groups = {key: g for key, g in rows.groupby(["dynamic", "method", "value"], sort=False)}
-        for dynamic in (False, True):
-            for method in METHODS:
-                for value in sorted(v for d, m, v in groups if d == dynamic and m == method):
-                    score = task_mean(groups[(dynamic, method, value)], tasks)
-                    if score is None:
-                        continue
-                    records.append({"experiment": experiment, "axis": panel.axis, "eval_split": panel.eval_split,
-                                    "dynamic": dynamic, "method": method, "value": value, "mean": score.mean,
-                                    "stderr": score.stderr, "n": score.n, "n_tasks": len(tasks)})
+        for axis, blend in ((panel.axis, "paper"), (panel.blend_axis, BLEND_2021)):
+            if axis is None:
+                continue
+            rows = panel_runs(runs, experiment, panel, axis)
+            groups = {key: g for key, g in rows.groupby(["dynamic", "method", "value"], sort=False)}
+            for dynamic in (False, True):
+                for method in METHODS:
+                    for value in sorted(v for d, m, v in groups if d == dynamic and m == method):
+                        score = task_mean(groups[(dynamic, method, value)], tasks)
+                        if score is None:
+                            continue
+                        records.append({"experiment": experiment, "axis": panel.axis, "eval_split": panel.eval_split,
+                                        "dynamic": dynamic, "method": method, "value": value, "mean": score.mean,
+                                        "stderr": score.stderr, "n": score.n, "n_tasks": len(tasks), "blend": blend})
     return pd.DataFrame.from_records(records, columns=list(CURVE_COLUMNS))
 
 
@@ -88,16 +104,6 @@ def half_score_table(curves: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame.from_records(records, columns=keys + ["score_at_0", "half_at", "max_value", "paper"])
 
 
-#: The ``blend`` of a curve whose background blend accumulates over episodes as in the 2021 code
-#: (``reference_blend``); curves without a ``blend`` column, or with ``"paper"``, blend as the paper says.
-BLEND_2021 = "2021 code"
-
-
-def blend_suffix(blend: str = "paper") -> str:
-    """What a row label adds for a curve of the 2021 code's blend."""
-    return " (2021 blend)" if blend == BLEND_2021 else ""
-
-
 def half_text(r) -> str:
     if math.isnan(r.score_at_0):
         return "no point at 0"
@@ -120,9 +126,9 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
             continue
         values = sorted(set(mine["value"]))
         rows = []
-        for (dynamic, method), g in mine.groupby(["dynamic", "method"], sort=False):
+        for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
             by_value = {v: r for v, r in zip(g["value"], g.itertuples())}
-            rows.append([f"{method} ({setting_name(dynamic)})"] + [
+            rows.append([f"{method} ({setting_name(dynamic)}){blend_suffix(blend)}"] + [
                 fmt_score(by_value[v].mean, by_value[v].stderr, by_value[v].n if annotate else None)
                 if v in by_value else MISSING
                 for v in values])

@@ -70,6 +70,8 @@ SWEEP_AXES: MappingProxyType[str, SweepAxis] = MappingProxyType({
     "color": SweepAxis("color_scale", float),
     # β_bg with b = 60 (the paper's Sec. 5.1); b with β_bg = 1 (its Sec. 5.2)
     "background_blend": SweepAxis("background_blend", float, {"num_videos": 60}),
+    # the same with the 2021 code's blend, which accumulates over an env's episodes (reference_blend)
+    "background_blend_2021": SweepAxis("background_blend", float, {"num_videos": 60, "reference_blend": True}),
     "num_videos": SweepAxis("num_videos", int, {"background_blend": 1.0}),
 })
 
@@ -93,6 +95,8 @@ class Panel:
         title: panel title in the figures.
         xlabel: x-axis label, with the symbol and unit.
         eval_split: ``train`` or ``val`` (unseen background videos, the paper's Sec. 5.2).
+        blend_axis: the axis of the same sweep with the 2021 code's background blend, drawn in
+            the same panel (optional: not part of the expected grid).
     """
 
     axis: str
@@ -100,6 +104,7 @@ class Panel:
     title: str
     xlabel: str
     eval_split: str = "train"
+    blend_axis: str | None = None
 
     @property
     def text_xlabel(self) -> str:
@@ -119,7 +124,7 @@ EXPERIMENTS: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType(
             Panel("camera", _INTENSITIES, "Camera", "camera scale $\\beta_{cam}$"),
             Panel("color", _INTENSITIES, "Colour", "colour scale $\\beta_{rgb}$"),
             Panel("background_blend", _INTENSITIES, "Background",
-                  "background blend $\\beta_{bg}$ (b = 60 videos)"),
+                  "background blend $\\beta_{bg}$ (b = 60 videos)", blend_axis="background_blend_2021"),
         ),
         "training": (
             Panel("camera", _INTENSITIES, "Camera", "camera scale $\\beta_{cam}$"),

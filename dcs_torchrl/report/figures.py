@@ -12,6 +12,7 @@
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from types import MappingProxyType
 
@@ -49,7 +50,7 @@ def _method_handles(methods) -> list:
 
 
 def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "",
-                  spread: str = "mean ± s.e. over seeds") -> Path:
+                  spread: str = "mean ± s.e. over seeds", axes_shown: Sequence[str] | None = None) -> Path:
     """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG.
 
     Args:
@@ -58,11 +59,12 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         path: the PNG to write.
         note: a line under the title (e.g. that the backgrounds are stand-in videos).
         spread: what the line and its band are, in the title.
+        axes_shown: only the panels of these axes (default: every panel of the experiment).
     """
-    panels = EXPERIMENTS[experiment]
+    panels = [p for p in EXPERIMENTS[experiment] if axes_shown is None or p.axis in axes_shown]
     if "blend" not in curves:
         curves = curves.assign(blend="paper")
-    fig = Figure(figsize=(4.2 * len(panels), 4.0))
+    fig = Figure(figsize=(4.2 * max(len(panels), 2), 4.0))  # room for the legend under one panel
     axes = fig.subplots(1, len(panels), squeeze=False)
     methods = [m for m in METHODS if m in set(curves["method"])]
     n_tasks = int(curves["n_tasks"].iloc[0]) if len(curves) else 0

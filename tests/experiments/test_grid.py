@@ -44,7 +44,8 @@ def test_paper_grids_have_the_papers_size(paper):
         *["num_videos-0-dynamic"] * 2, *["num_videos-0-static"] * 2]  # each also on the unseen videos
     unseen = [e for r in paper["training"] for e in r.evaluations if e.path.endswith("/unseen")]
     assert len(unseen) == models * 8 * 2 and all(e.sweep["eval_split"] == "val" for e in unseen)
-    assert len(paper["robustness"]) == models and all(len(r.evaluations) == 3 * 11 * 2 for r in paper["robustness"])
+    # camera, colour, background blend as the paper describes it and as the 2021 code blends
+    assert len(paper["robustness"]) == models and all(len(r.evaluations) == 4 * 11 * 2 for r in paper["robustness"])
     assert len(paper["interactions"]) == models * (2 * 2 * 3 + 5)
 
 
@@ -63,9 +64,10 @@ def _sweep_points(runs) -> dict[str, set]:
 def test_paper_grids_cover_the_reports_panels_exactly(paper, experiment):
     expected = set()
     for panel in EXPERIMENTS[experiment]:
-        for value in panel.values:
-            for dynamic in ((False,) if value == "none" else (False, True)):
-                expected.add((panel.axis, value, dynamic, panel.eval_split))
+        for axis in filter(None, (panel.axis, panel.blend_axis)):  # blend_axis: the same panel, 2021 blend
+            for value in panel.values:
+                for dynamic in ((False,) if value == "none" else (False, True)):
+                    expected.add((axis, value, dynamic, panel.eval_split))
     assert _sweep_points(paper[experiment])[experiment] == expected
 
 

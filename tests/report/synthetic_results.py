@@ -31,10 +31,11 @@ def env_dict(axis: str, value, dynamic: bool, split: str = "train") -> dict:
         rgb = value
     elif axis == "num_videos":
         videos = value
-    elif axis == "background_blend":
+    elif axis in ("background_blend", "background_blend_2021"):
         videos, blend = 60, value
     return {"benchmark": bench, "dynamic": dynamic, "camera_scale": cam, "color_scale": rgb, "num_videos": videos,
-            "background_blend": blend, "blind": value == "blind", "background_split": split}
+            "background_blend": blend, "blind": value == "blind", "background_split": split,
+            "reference_blend": axis == "background_blend_2021"}
 
 
 def run_doc(score: float, method: str = "SAC", domain: str = "cheetah", task: str = "run", seed: int = 0, *,

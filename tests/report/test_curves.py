@@ -50,3 +50,22 @@ def test_half_score_points(curves):
     assert row in md.splitlines()
     assert "| SAC (dynamic) | 500 (n=1) | 450 (n=1) | 400 (n=1) |" in md.splitlines()
     assert "## Background — background blend β_bg (b = 60 videos)\n\nNo results." in md
+
+
+def test_the_2021_blend_is_a_second_curve_in_the_background_panel(tmp_path):
+    from dcs_torchrl.report.curves import BLEND_2021, half_score_markdown
+    from dcs_torchrl.report.figures import curves_figure
+
+    for seed in (0, 1):
+        for value, paper, accumulated in ((0.0, 800.0, 800.0), (0.1, 700.0, 300.0), (0.5, 350.0, 100.0)):
+            write_run(tmp_path, paper + seed, seed=seed, experiment="robustness", axis="background_blend", value=value)
+            write_run(tmp_path, accumulated + seed, seed=seed, experiment="robustness", axis="background_blend_2021",
+                      value=value)
+    curves = curve_table(load_results(tmp_path).runs, "robustness")
+    assert set(curves["axis"]) == {"background_blend"} and set(curves["blend"]) == {"paper", BLEND_2021}
+    half = half_score_table(curves)
+    assert dict(zip(half["blend"], half["half_at"])) == {"paper": 0.5, BLEND_2021: 0.1}
+    text = half_score_markdown(half)
+    assert "| background_blend (2021 blend) | static | 0.1 |" in text and "| background_blend | static | 0.5 |" in text
+    assert "(2021 blend)" in curves_markdown(curves, "robustness")
+    assert curves_figure(curves, "robustness", tmp_path / "robustness.png").stat().st_size > 10_000

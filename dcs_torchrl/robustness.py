@@ -25,6 +25,7 @@ import hashlib
 import json
 import multiprocessing
 import os
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -167,11 +168,19 @@ def _row(point: Point, result: dict, **extra) -> dict:
 _WORKER_AGENT = None
 
 
-def _start_worker(agent: str, threads: int) -> None:
+def _exit_with(parent: int) -> None:
+    """Ends this worker when the command that started it is gone (killed: no one would read its results)."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)
+
+
+def _start_worker(agent: str, threads: int, parent: int) -> None:
     # Each worker gets its share of the cores, for torch and for Mesa's llvmpipe render threads
     # (read when the first GL context is made; without it the workers' renders contend: see
     # docs/performance.md). A user's LP_NUM_THREADS is kept.
     os.environ.setdefault("LP_NUM_THREADS", str(threads))
+    threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
     import torch
 
     from dcs_torchrl.pretrained import load_pretrained
@@ -240,7 +249,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     threads = max(1, (os.cpu_count() or 1) // workers)
     bar = _progress(list(todo), progress)
     with ProcessPoolExecutor(min(workers, max(1, len(todo))), mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_start_worker, initargs=(os.fspath(directory), threads)) as pool:
+                             initializer=_start_worker, initargs=(os.fspath(directory), threads, os.getpid())) as pool:
         futures = {pool.submit(_evaluate_in_worker, overrides, episodes): key for key, overrides in todo.items()}
         for future in as_completed(futures):
             key = futures[future]

@@ -67,3 +67,33 @@ def test_any_policy_and_env_factory():
     rows = robustness_sweep(agent.policy, lambda **o: agent.make_env(**o), points, episodes=1, seed=agent.eval_seed)
     assert rows[0]["returns"] == list(agent.evaluate(1).returns)
     assert rows[1]["returns"] == list(agent.evaluate(1, color_scale=0.5, dynamic=False).returns)
+
+
+def test_workers_end_when_the_command_is_killed(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    command = [sys.executable, "-m", "dcs_torchrl.robustness", AGENT, "--axes", "camera", "--intensities", "0.1", "0.2",
+               "--episodes", "50", "--workers", "2", "--out", str(tmp_path), "--no-progress"]
+    main = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    def workers():
+        out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(main.pid)], capture_output=True, text=True).stdout
+        return [int(p) for p in out.split()]
+
+    deadline = time.time() + 120
+    while len(workers()) < 2 and time.time() < deadline:
+        time.sleep(0.5)
+    children = workers()
+    assert children, "the command started no workers"
+    os.kill(main.pid, signal.SIGKILL)
+    main.wait()
+    deadline = time.time() + 30
+    alive = children
+    while alive and time.time() < deadline:
+        time.sleep(0.5)
+        alive = [p for p in alive if os.path.exists(f"/proc/{p}") and "Z" not in open(f"/proc/{p}/stat").read().split()[2]]
+    assert not alive, f"workers {alive} outlived the command"

@@ -81,11 +81,6 @@ class Point:
         """The same for every point of the same env (all points at intensity 0 share one)."""
         return json.dumps(self.overrides(background_dir, num_videos), sort_keys=True)
 
-    @property
-    def label(self) -> str:
-        blend = "-2021blend" if self.reference_blend else ""
-        return f"{self.axis}{blend}-{'dynamic' if self.dynamic else 'static'}-{self.value:g}"
-
 
 def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float] = QUICK_INTENSITIES,
                  setting: str = "static", reference_blend: bool | str = False) -> list[Point]:
@@ -93,8 +88,10 @@ def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float]
     for the background axis).
 
     Examples:
-        >>> [p.label for p in sweep_points(["camera"], [0.0, 0.5], "both")]
-        ['camera-static-0', 'camera-static-0.5', 'camera-dynamic-0', 'camera-dynamic-0.5']
+        >>> [(p.value, p.dynamic) for p in sweep_points(["camera"], [0.0, 0.5], "both")]
+        [(0.0, False), (0.5, False), (0.0, True), (0.5, True)]
+        >>> [p.sweep_axis for p in sweep_points(["background"], [0.5], reference_blend="both")]
+        ['background_blend', 'background_blend_2021']
     """
     unknown = sorted(set(axes) - set(AXES))
     if unknown:

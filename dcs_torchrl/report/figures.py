@@ -12,6 +12,7 @@
 """
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from types import MappingProxyType
@@ -101,7 +102,7 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False, fontsize=10)
     titles = {"robustness": "Trained without distractions, evaluated with one distraction",
               "training": "Trained and evaluated with one distraction"}
-    fig.suptitle(f"{titles.get(experiment, experiment)} ({spread})" + (f"\n{note}" if note else ""), fontsize=12)
+    fig.suptitle(f"{titles.get(experiment, experiment)} ({spread})" + _note_lines(note, fig), fontsize=12)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     return _save(fig, path)
 
@@ -157,7 +158,7 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     ax.set_ylim(bottom=0)
     ax.grid(axis="y", alpha=0.3)
     # over the whole figure, legend included: a long note would be cut off over the axes alone
-    fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + (f"\n{note}" if note else ""), fontsize=12)
+    fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + _note_lines(note, fig), fontsize=12)
     handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + benchmark_markers(
         expected=drew_expected, paper_expected=drew_paper_expected, missing=any_missing,
         paper_label=paper_label, expected_label=expected_label)
@@ -180,6 +181,11 @@ def benchmark_markers(*, expected: bool, paper_expected: bool, missing: bool, pa
         (missing, Line2D([], [], marker="x", color="0.55", ls="", ms=6, label="no results")),
     ]
     return [entry for drawn, entry in entries if drawn]
+
+
+def _note_lines(note: str, fig: Figure) -> str:
+    """``note`` on its own lines under a title, wrapped to the figure's width (12-point text)."""
+    return "".join("\n" + line for line in textwrap.wrap(note, int(11 * fig.get_figwidth())))
 
 
 def _save(fig, path) -> Path:

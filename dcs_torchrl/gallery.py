@@ -54,6 +54,14 @@ def _label(width: int, text: str, height: int = 18) -> np.ndarray:
     return strip
 
 
+def _name(words, height: int, width: int) -> np.ndarray:
+    """A white cell with ``words`` one under the other, a row's name."""
+    cell_ = np.full((height, width, 3), 255, np.uint8)
+    for i, word in enumerate(words):
+        cv2.putText(cell_, word, (3, height // 2 + 14 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
+    return cell_
+
+
 def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0) -> np.ndarray:
     """The whole figure as an RGB uint8 image."""
     rows = []
@@ -61,10 +69,7 @@ def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0) 
     rows.append(np.concatenate([_label(96, "beta / videos")] + header, axis=1))
     for domain, task in presets.TASKS:
         frames = [cell(domain, task, c, size, seed, background_dir, steps) for c in range(len(SCALES))]
-        name = np.full((size, 96, 3), 255, np.uint8)
-        for i, word in enumerate((domain, task)):
-            cv2.putText(name, word, (3, size // 2 + 14 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
-        rows.append(np.concatenate([name] + frames, axis=1))
+        rows.append(np.concatenate([_name((domain, task), size, 96)] + frames, axis=1))
     return np.concatenate(rows, axis=0)
 
 
@@ -88,13 +93,9 @@ def blend_figure(blends, size: int = 168, seeds=(0, 1), background_dir=None, epi
     for reference in (False, True):
         for seed in seeds:
             frames = [blend_view(b, size, seed, background_dir, reference, episodes if reference else 0) for b in blends]
-            name = np.full((size, 150, 3), 255, np.uint8)
             words = ([f"2021 code, seed {seed}", f"after {episodes} episodes"] if reference
                      else [f"paper, seed {seed}"])
-            for i, word in enumerate(words):
-                cv2.putText(name, word, (3, size // 2 + 14 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1,
-                            cv2.LINE_AA)
-            rows.append(np.concatenate([name] + frames, axis=1))
+            rows.append(np.concatenate([_name(words, size, 150)] + frames, axis=1))
     return np.concatenate(rows, axis=0)
 
 

@@ -138,7 +138,7 @@ class Pretrained:
         """The recipes' final evaluation of this agent in an env of make_env ``settings``.
 
         ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
-        seeds of the training run's final evaluation, so that no settings reproduce it; with
+        seeds of the training run's final evaluation (without settings it repeats that evaluation); with
         ``workers`` > 1 the episodes are spread over that many ``ParallelEnv`` workers (other
         seeds per worker: other episodes). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
         """

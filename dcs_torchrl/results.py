@@ -26,7 +26,7 @@ from typing import Optional
 
 from dcs_torchrl.methods import method_name
 
-__all__ = ["JSON_TYPES", "RESULTS_FILE", "RunResults", "SCHEMA", "with_videos_version"]
+__all__ = ["JSON_TYPES", "RESULTS_FILE", "RunResults", "SCHEMA", "shows_videos", "with_videos_version"]
 
 RESULTS_FILE = "results.json"
 SCHEMA = 1
@@ -83,6 +83,11 @@ class RunResults:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
+def shows_videos(env: Mapping) -> bool:
+    """Whether an env record (resolved settings) shows background videos: some, blended in."""
+    return (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) > 0
+
+
 def with_videos_version(env: Mapping) -> dict:
     """``env`` (resolved settings) with the embedded videos' version if it shows them.
 
@@ -94,7 +99,7 @@ def with_videos_version(env: Mapping) -> dict:
     from dcs_torchrl.videos.embedded import EMBEDDED_VERSION
 
     env = dict(env)
-    if (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) > 0 and not env.get("background_dir"):
+    if shows_videos(env) and not env.get("background_dir"):
         env.setdefault("embedded_videos", EMBEDDED_VERSION)
     return env
 

@@ -193,9 +193,9 @@ def _evaluate_in_worker(overrides: dict, episodes: int) -> dict:
 
 def _videos_version(overrides: dict) -> int | None:
     """The embedded videos' version if a point shows them (points on older videos are evaluated again)."""
-    from dcs_torchrl.videos import EMBEDDED_VERSION
+    from dcs_torchrl.results import with_videos_version
 
-    return EMBEDDED_VERSION if overrides.get("background_blend") and not overrides.get("background_dir") else None
+    return with_videos_version(overrides).get("embedded_videos")
 
 
 def _agent_identity(directory: Path, results: dict) -> dict:

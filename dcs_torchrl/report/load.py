@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from dcs_torchrl.report.experiments import AXES, METHODS
-from dcs_torchrl.results import JSON_TYPES, RESULTS_FILE, SCHEMA
+from dcs_torchrl.results import JSON_TYPES, RESULTS_FILE, SCHEMA, shows_videos
 
 __all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run", "one_budget"]
 
@@ -189,7 +189,7 @@ def backgrounds(*envs: dict) -> str:
         >>> backgrounds({"num_videos": 8, "background_dir": None, "embedded_videos": 2})
         'stand-in v2'
     """
-    used = [env for env in envs if (env.get("num_videos") or 0) > 0 and env.get("background_blend", 1.0) != 0]
+    used = [env for env in envs if shows_videos(env)]
     if not used:
         return "none"
     if all(env.get("background_dir") for env in used):

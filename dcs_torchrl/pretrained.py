@@ -24,10 +24,14 @@ import argparse
 import json
 import os
 import shutil
+import threading
+import time
+from collections.abc import Hashable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Pretrained", "agent_directory", "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
+__all__ = ["Pretrained", "agent_directory", "evaluate_settings", "export_policy", "load_policy_state", "load_pretrained",
+           "shipped_agents"]
 
 _PACKAGE = Path(__file__).resolve().parent
 # Where the shipped agents are: inside an installed wheel (pyproject.toml maps recipes/pretrained
@@ -186,6 +190,78 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
     built, cfg = _build_agent(results, device)
     load_policy_state(built, loaded[1])
     return Pretrained(acting_on(built.policy, device), results, cfg)
+
+
+def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
+                      processes: int = 1, workers: int = 1, device: str = "cpu",
+                      final: bool = False) -> Iterator[tuple[Hashable, dict, float]]:
+    """:meth:`Pretrained.evaluate` of ``agent`` under each of several make_env ``settings``, in
+    ``processes`` processes at once; yields ``(key, EvalResult.to_dict(), seconds)`` as each one
+    finishes.
+
+    Each process evaluates whole settings, each in one env, so every episode's return is the one
+    an evaluation in this process gives (and the 2021 code's background blend accumulates over all
+    of a setting's episodes, as there). Processes get an equal share of the cores for torch and for
+    Mesa's llvmpipe render threads (``LP_NUM_THREADS``, read when the first GL context is made;
+    without it their renders contend: docs/performance.md) and end when this process is killed.
+    ``processes=1`` evaluates here, one setting after another.
+
+    Args:
+        agent: a finished run, an exported agent or a shipped agent's name.
+        settings: per key, make_env settings over the training env's (``{}``: the training env).
+        episodes: episodes per setting.
+        processes: settings evaluated at once.
+        workers: :meth:`Pretrained.evaluate`'s env workers per setting (1: one env).
+        device, final: as :func:`load_pretrained`.
+    """
+    if processes < 1:
+        raise ValueError(f"processes must be >= 1, got {processes}.")
+    if processes == 1 or len(settings) < 2:
+        loaded = load_pretrained(agent, device, final=final) if settings else None
+        for key, overrides in settings.items():
+            yield key, *_timed_evaluation(loaded, overrides, episodes, workers)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    processes = min(processes, len(settings))
+    threads = max(1, (os.cpu_count() or 1) // processes)
+    with ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
+                             initargs=(os.fspath(agent), device, final, threads, os.getpid())) as pool:
+        futures = {pool.submit(_evaluate_in_worker, overrides, episodes, workers): key
+                   for key, overrides in settings.items()}
+        for future in as_completed(futures):
+            yield futures[future], *future.result()
+
+
+_WORKER_AGENT = None
+
+
+def _exit_with(parent: int) -> None:
+    """Ends this worker when the process that started it is gone (killed: no one would read its results)."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)
+
+
+def _start_worker(agent: str, device: str, final: bool, threads: int, parent: int) -> None:
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))  # a user's setting is kept
+    threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
+    import torch
+
+    global _WORKER_AGENT
+    torch.set_num_threads(threads)
+    _WORKER_AGENT = load_pretrained(agent, device, final=final)
+
+
+def _timed_evaluation(agent: Pretrained, overrides: dict, episodes: int, workers: int) -> tuple[dict, float]:
+    start = time.time()
+    result = agent.evaluate(episodes, workers=workers, **overrides).to_dict()
+    return result, time.time() - start
+
+
+def _evaluate_in_worker(overrides: dict, episodes: int, workers: int) -> tuple[dict, float]:
+    return _timed_evaluation(_WORKER_AGENT, overrides, episodes, workers)
 
 
 def main(argv=None) -> None:

@@ -23,12 +23,9 @@ import argparse
 import csv
 import hashlib
 import json
-import multiprocessing
 import os
-import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -161,36 +158,7 @@ def _row(point: Point, result: dict, **extra) -> dict:
             "returns": result["returns"]}
 
 
-# ------------------------------------------------------------------ a trained agent, in workers
-_WORKER_AGENT = None
-
-
-def _exit_with(parent: int) -> None:
-    """Ends this worker when the command that started it is gone (killed: no one would read its results)."""
-    while os.getppid() == parent:
-        time.sleep(1.0)
-    os._exit(1)
-
-
-def _start_worker(agent: str, threads: int, parent: int) -> None:
-    # Each worker gets its share of the cores, for torch and for Mesa's llvmpipe render threads
-    # (read when the first GL context is made; without it the workers' renders contend: see
-    # docs/performance.md). A user's LP_NUM_THREADS is kept.
-    os.environ.setdefault("LP_NUM_THREADS", str(threads))
-    threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
-    import torch
-
-    from dcs_torchrl.pretrained import load_pretrained
-
-    global _WORKER_AGENT
-    torch.set_num_threads(threads)
-    _WORKER_AGENT = load_pretrained(agent)
-
-
-def _evaluate_in_worker(overrides: dict, episodes: int) -> dict:
-    return _WORKER_AGENT.evaluate(episodes, **overrides).to_dict()
-
-
+# ------------------------------------------------------------------ a trained agent
 def _videos_version(overrides: dict) -> int | None:
     """The embedded videos' version if a point shows them (points on older videos are evaluated again)."""
     from dcs_torchrl.results import with_videos_version
@@ -214,7 +182,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     already there (same agent, episodes and env) are not evaluated again. ``workers`` processes
     each evaluate whole points. Returns the rows of :func:`write_outputs`.
     """
-    from dcs_torchrl.pretrained import _results, agent_directory
+    from dcs_torchrl.pretrained import _results, agent_directory, evaluate_settings
 
     directory = agent_directory(agent)
     results = _results(directory)
@@ -243,19 +211,14 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
 
     todo = {p.key(background_dir, num_videos): p.overrides(background_dir, num_videos) for p in points}
     todo = {key: overrides for key, overrides in todo.items() if key not in done}
-    threads = max(1, (os.cpu_count() or 1) // workers)
     bar = _progress(list(todo), progress)
-    with ProcessPoolExecutor(min(workers, max(1, len(todo))), mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_start_worker, initargs=(os.fspath(directory), threads, os.getpid())) as pool:
-        futures = {pool.submit(_evaluate_in_worker, overrides, episodes): key for key, overrides in todo.items()}
-        for future in as_completed(futures):
-            key = futures[future]
-            done[key] = future.result()
-            record = {"agent": identity, "key": key, "overrides": todo[key], "episodes": episodes,
-                      "embedded_videos": _videos_version(todo[key]), "eval": done[key]}
-            name = hashlib.sha256(f"{key}|{episodes}".encode()).hexdigest()[:16]
-            write_json_atomic(stored / f"{name}.json", record)
-            bar.update(1)
+    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers):
+        done[key] = result
+        record = {"agent": identity, "key": key, "overrides": todo[key], "episodes": episodes,
+                  "embedded_videos": _videos_version(todo[key]), "eval": result}
+        name = hashlib.sha256(f"{key}|{episodes}".encode()).hexdigest()[:16]
+        write_json_atomic(stored / f"{name}.json", record)
+        bar.update(1)
     bar.close()
     who = {k: identity[k] for k in ("method", "domain", "task", "seed")}
     return [_row(p, done[p.key(background_dir, num_videos)], **who) for p in points]

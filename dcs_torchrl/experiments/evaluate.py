@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -60,6 +59,7 @@ def evaluate_checkpoint(
     *,
     settings: Mapping[str, object] | None = None,
     threads: int | None = None,
+    processes: int = 1,
 ) -> list[dict]:
     """Evaluates the final checkpoint of ``train_dir`` once per ``(directory, evaluation)``.
 
@@ -69,13 +69,16 @@ def evaluate_checkpoint(
         targets: where each evaluation writes, and what it evaluates.
         settings: ``eval.episodes``, ``eval.num_workers``, ``device`` overriding the trained run's.
         threads: torch threads (``None``: torch's default).
+        processes: evaluations run at once, each in its own process and one env per evaluation
+            (:func:`dcs_torchrl.pretrained.evaluate_settings`); every return is the one a lone
+            evaluation gives.
 
     Returns:
         the ``results.json`` content of every target, in order.
     """
     import torch
 
-    from dcs_torchrl.pretrained import agent_directory, load_pretrained
+    from dcs_torchrl.pretrained import agent_directory, evaluate_settings
     from dcs_torchrl.training import RunDirectory
     from dcs_torchrl.training.envs import env_options, env_settings
 
@@ -105,10 +108,11 @@ def evaluate_checkpoint(
 
     if threads is not None:
         torch.set_num_threads(threads)
-    agent = load_pretrained(train_dir, device, final=True)  # a training checkpoint or an exported agent
-    for index, run, evaluation, eval_settings in todo:
-        start = time.time()
-        result = agent.evaluate(episodes, workers=workers, **evaluation.eval_env)
+    pending = {index: (run, evaluation, eval_settings) for index, run, evaluation, eval_settings in todo}
+    for index, result, seconds in evaluate_settings(train_dir, {i: e.eval_env for i, (_, e, _) in pending.items()},
+                                                    episodes, processes=processes, workers=workers, device=device,
+                                                    final=True):  # a training checkpoint or an exported agent
+        run, evaluation, eval_settings = pending[index]
         config = OmegaConf.to_container(cfg)
         config.update(
             experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,
@@ -117,8 +121,8 @@ def evaluate_checkpoint(
             evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": trained["steps"]},
         )
         results[index] = RunResults.from_config(
-            config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=time.time() - start,
-            train_env=trained["train_env"], eval_env=eval_settings.as_dict(), sweep=evaluation.sweep, eval=result.to_dict(),
+            config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=seconds,
+            train_env=trained["train_env"], eval_env=eval_settings.as_dict(), sweep=evaluation.sweep, eval=result,
         ).as_dict()
         run.write_results(results[index])
     return results

@@ -172,7 +172,8 @@ def run_job(cfg: DictConfig, run_id: str) -> str:
     if run.evaluations:
         try:
             evaluate_checkpoint(run.dir(_root(cfg)), [(run.eval_dir(_root(cfg), e), e) for e in run.evaluations],
-                                settings=recipe_settings(cfg), threads=cfg.budget.threads)
+                                settings=recipe_settings(cfg), threads=cfg.budget.threads,
+                                processes=OmegaConf.select(cfg, "budget.eval_processes", default=1))
         except Exception as err:  # noqa: BLE001 - recorded for the status, the sweep goes on
             _write_status(cfg, run, state="failed", stage="evaluate", error=f"{type(err).__name__}: {err}", **where)
             return "failed"

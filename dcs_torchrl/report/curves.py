@@ -1,9 +1,11 @@
 """Score vs distraction intensity (experiments ``robustness`` and ``training``; Stone et al. 2021, Secs. 5.1-5.2, Figs. 4-5).
 
 Each point is the mean over tasks (per seed, then mean ± s.e. over seeds, as in the tables)
-of one method at one intensity in one setting. The half-score table gives the first intensity
-at which a method's score is at most half its score at intensity 0, beside the paper's
-statements ("top methods lose half their score at β_cam = 0.2, β_rgb = 0.6, β_bg < 0.1").
+of one method at one intensity in one setting; with several tasks, each task's own curve comes
+too (column ``task``: :data:`ALL_TASKS` for the mean, else ``<domain>-<task>``). The half-score
+table gives the first intensity at which a method's score is at most half its score at
+intensity 0, beside the paper's statements ("top methods lose half their score at β_cam = 0.2,
+β_rgb = 0.6, β_bg < 0.1").
 """
 from __future__ import annotations
 
@@ -18,10 +20,14 @@ from dcs_torchrl.report.select import select, tasks_of
 from dcs_torchrl.report.stats import task_mean
 from dcs_torchrl.report.tables import setting_name
 
-__all__ = ["BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "half_score_table", "half_score_markdown", "curves_markdown"]
+__all__ = ["ALL_TASKS", "BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "curve_tasks", "half_score_table",
+           "half_score_markdown", "curves_markdown"]
 
 CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks",
-                 "blend")
+                 "blend", "task")
+
+#: The ``task`` of a curve that is the mean over every task of the experiment.
+ALL_TASKS = "mean"
 
 
 #: The ``blend`` of a curve whose background blend accumulates over episodes as in the 2021 code
@@ -32,6 +38,24 @@ BLEND_2021 = "2021 code"
 def blend_suffix(blend: str = "paper") -> str:
     """What a row label adds for a curve of the 2021 code's blend."""
     return " (2021 blend)" if blend == BLEND_2021 else ""
+
+
+def curve_tasks(curves: pd.DataFrame) -> list[str]:
+    """The curves' ``task`` values, the mean first (a table without the column: one, the mean).
+
+    Examples:
+        >>> curve_tasks(pd.DataFrame({"task": ["cartpole-swingup", "mean", "ball_in_cup-catch", "mean"]}))
+        ['mean', 'cartpole-swingup', 'ball_in_cup-catch']
+    """
+    if "task" not in curves:
+        return [ALL_TASKS]
+    found = list(dict.fromkeys(curves["task"]))
+    return sorted(found, key=lambda t: t != ALL_TASKS)
+
+
+def task_suffix(task: str) -> str:
+    """What a row label adds for one task's curve (nothing for the mean)."""
+    return "" if task == ALL_TASKS else f" — {task}"
 
 
 def panel_runs(runs: pd.DataFrame, experiment: str, panel: Panel, axis: str | None = None) -> pd.DataFrame:
@@ -47,12 +71,14 @@ def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
         experiment: ``robustness`` or ``training``.
 
     Returns:
-        columns :data:`CURVE_COLUMNS`, sorted by panel, setting, method, value; the mean is over
-        every task found in the experiment (``n_tasks``), so a point lacking a task is absent.
-        A panel's ``blend_axis`` runs are its curves with ``blend`` :data:`BLEND_2021`, under the
-        panel's axis.
+        columns :data:`CURVE_COLUMNS`, sorted by panel, blend, task, setting, method, value. The
+        ``task`` :data:`ALL_TASKS` rows are the mean over every task found in the experiment
+        (``n_tasks``), so a point lacking a task is absent there; with more than one task, each
+        task's own rows follow (``n_tasks`` 1). A panel's ``blend_axis`` runs are its curves with
+        ``blend`` :data:`BLEND_2021`, under the panel's axis.
     """
     tasks = tasks_of(select(runs, experiment=experiment))
+    variants = [(ALL_TASKS, tasks)] + ([(f"{d}-{t}", [(d, t)]) for d, t in tasks] if len(tasks) > 1 else [])
     records = []
     for panel in EXPERIMENTS[experiment]:
         for axis, blend in ((panel.axis, "paper"), (panel.blend_axis, BLEND_2021)):
@@ -60,15 +86,17 @@ def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
                 continue
             rows = panel_runs(runs, experiment, panel, axis)
             groups = {key: g for key, g in rows.groupby(["dynamic", "method", "value"], sort=False)}
-            for dynamic in (False, True):
-                for method in METHODS:
-                    for value in sorted(v for d, m, v in groups if d == dynamic and m == method):
-                        score = task_mean(groups[(dynamic, method, value)], tasks)
-                        if score is None:
-                            continue
-                        records.append({"experiment": experiment, "axis": panel.axis, "eval_split": panel.eval_split,
-                                        "dynamic": dynamic, "method": method, "value": value, "mean": score.mean,
-                                        "stderr": score.stderr, "n": score.n, "n_tasks": len(tasks), "blend": blend})
+            for name, over in variants:
+                for dynamic in (False, True):
+                    for method in METHODS:
+                        for value in sorted(v for d, m, v in groups if d == dynamic and m == method):
+                            score = task_mean(groups[(dynamic, method, value)], over)
+                            if score is None:
+                                continue
+                            records.append({"experiment": experiment, "axis": panel.axis,
+                                            "eval_split": panel.eval_split, "dynamic": dynamic, "method": method,
+                                            "value": value, "mean": score.mean, "stderr": score.stderr, "n": score.n,
+                                            "n_tasks": len(over), "blend": blend, "task": name})
     return pd.DataFrame.from_records(records, columns=list(CURVE_COLUMNS))
 
 
@@ -92,7 +120,7 @@ def half_score_table(curves: pd.DataFrame) -> pd.DataFrame:
         [{'score_at_0': 800.0, 'half_at': 0.2, 'paper': '0.2'}]
     """
     records = []
-    keys = ["experiment", "axis", "eval_split", "dynamic", "method"] + (["blend"] if "blend" in curves else [])
+    keys = ["experiment", "axis", "eval_split", "dynamic", "method"] + [c for c in ("blend", "task") if c in curves]
     for key, group in curves.groupby(keys, sort=False):
         group = group.sort_values("value")
         at0 = group[group["value"] == 0]["mean"]
@@ -114,10 +142,12 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
     """Markdown: per panel a table of mean ± s.e. (rows method × setting, columns intensity),
     then where each method loses half its score."""
     parts = [f"# Experiment `{experiment}`: score vs intensity", ""]
-    n_tasks = int(curves["n_tasks"].iloc[0]) if len(curves) else 0
+    curves = curves.assign(task=curves["task"]) if "task" in curves else curves.assign(task=ALL_TASKS)
+    n_tasks = int(curves["n_tasks"].max()) if len(curves) else 0
     annotate, note = seed_counts(curves["n"])
+    each = (" Rows marked `— <task>` are that task alone." if len(curve_tasks(curves)) > 1 else "")
     parts += [f"Mean over {n_tasks} tasks (per seed, then mean ± s.e. over seeds); `(n=k)` marks a seed "
-              "count other than 5." + (f" {note}" if note else ""), ""]
+              "count other than 5." + (f" {note}" if note else "") + each, ""]
     for panel in EXPERIMENTS[experiment]:
         mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
         parts += [f"## {panel.title} — {panel.text_xlabel}", ""]
@@ -126,9 +156,9 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
             continue
         values = sorted(set(mine["value"]))
         rows = []
-        for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
+        for (dynamic, method, blend, task), g in mine.groupby(["dynamic", "method", "blend", "task"], sort=False):
             by_value = {v: r for v, r in zip(g["value"], g.itertuples())}
-            rows.append([f"{method} ({setting_name(dynamic)}){blend_suffix(blend)}"] + [
+            rows.append([f"{method} ({setting_name(dynamic)}){blend_suffix(blend)}{task_suffix(task)}"] + [
                 fmt_score(by_value[v].mean, by_value[v].stderr, by_value[v].n if annotate else None)
                 if v in by_value else MISSING
                 for v in values])
@@ -138,8 +168,8 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
 
 
 def half_score_markdown(half: pd.DataFrame) -> str:
-    """A compact table of :func:`half_score_table`: rows axis × setting, columns methods, and the
-    paper's statement.
+    """A compact table of :func:`half_score_table`: rows axis × setting (× task, with a Task column
+    when there are several), columns methods, and the paper's statement.
 
     Examples:
         >>> curves = pd.DataFrame({"experiment": "robustness", "axis": "camera", "eval_split": "train",
@@ -150,12 +180,18 @@ def half_score_markdown(half: pd.DataFrame) -> str:
     if half.empty:
         return "No results."
     rows = []
-    variants = ["axis", "eval_split", "dynamic"] + (["blend"] if "blend" in half else [])
-    for (axis, split, dynamic, *blend), g in half.groupby(variants, sort=False):
+    half = half.assign(blend=half["blend"]) if "blend" in half else half.assign(blend="paper")
+    half = half.assign(task=half["task"]) if "task" in half else half.assign(task=ALL_TASKS)
+    per_task = len(curve_tasks(half)) > 1
+    for (axis, split, blend, task, dynamic), g in half.groupby(["axis", "eval_split", "blend", "task", "dynamic"],
+                                                              sort=False):
         by_method = {r.method: half_text(r) for r in g.itertuples()}
-        label = axis + ("" if split == "train" else " (unseen videos)") + blend_suffix(*blend)
-        rows.append([label, setting_name(dynamic)]
+        label = axis + ("" if split == "train" else " (unseen videos)") + blend_suffix(blend)
+        rows.append([label, setting_name(dynamic)] + ([task] if per_task else [])
                     + [by_method.get(m, MISSING) for m in METHODS] + [g["paper"].iloc[0] or MISSING])
-    table = md_table(["Axis", "Setting", *METHODS, "Paper (top methods)"], rows, "ll" + "r" * (len(METHODS) + 1))
-    return table + ("\n\nThe first intensity whose mean score over tasks is at most half the score at 0; "
-                    "`> x`: not within the sweep (up to x).")
+    header = ["Axis", "Setting"] + (["Task"] if per_task else []) + [*METHODS, "Paper (top methods)"]
+    table = md_table(header, rows, "ll" + "l" * per_task + "r" * (len(METHODS) + 1))
+    return table + ("\n\nThe first intensity whose mean score over tasks (task `mean`; else that task's score) "
+                    "is at most half the score at 0; `> x`: not within the sweep (up to x)."
+                    if per_task else "\n\nThe first intensity whose mean score over tasks is at most half the "
+                    "score at 0; `> x`: not within the sweep (up to x).")

@@ -2,7 +2,7 @@
 
 - :func:`curves_figure`: one panel per sweep of the experiment (the paper's Figs. 4-5); x the
   intensity, y the mean score over tasks; one colour per method, static solid, dynamic dashed,
-  shaded ± s.e.
+  shaded ± s.e.; with several tasks, a row of panels per task under the mean's.
 - :func:`benchmark_figure`: per benchmark (none / easy / medium / blind) one bar per method with
   its s.e.; a black star at the expected score if the degradations were independent (no-
   distraction score × product of the single-distraction relative scores, the paper's Figs. 6-7);
@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from dcs_torchrl.report.curves import BLEND_2021
+from dcs_torchrl.report.curves import ALL_TASKS, BLEND_2021, curve_tasks
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.methods import METHODS as REGISTRY
@@ -52,7 +52,8 @@ def _method_handles(methods) -> list:
 
 def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "",
                   spread: str = "mean ± s.e. over seeds", axes_shown: Sequence[str] | None = None) -> Path:
-    """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG.
+    """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG; with several
+    tasks (the ``task`` column), the mean over them on the first row, then a row per task.
 
     Args:
         curves: :func:`~dcs_torchrl.report.curves.curve_table` of the experiment.
@@ -63,36 +64,21 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         axes_shown: only the panels of these axes (default: every panel of the experiment).
     """
     panels = [p for p in EXPERIMENTS[experiment] if axes_shown is None or p.axis in axes_shown]
-    if "blend" not in curves:
-        curves = curves.assign(blend="paper")
-    fig = Figure(figsize=(4.2 * max(len(panels), 2), 4.0))  # room for the legend under one panel
-    axes = fig.subplots(1, len(panels), squeeze=False)
+    curves = curves.assign(**{c: d for c, d in (("blend", "paper"), ("task", ALL_TASKS)) if c not in curves})
+    tasks = curve_tasks(curves) if len(curves) else [ALL_TASKS]
+    # room for the legend under one panel; the title and legend take the same height whatever the rows
+    fig = Figure(figsize=(4.2 * max(len(panels), 2), 1.0 + 3.0 * len(tasks)))
+    axes = fig.subplots(len(tasks), len(panels), squeeze=False)
     methods = [m for m in METHODS if m in set(curves["method"])]
-    n_tasks = int(curves["n_tasks"].iloc[0]) if len(curves) else 0
-    for ax, panel in zip(axes[0], panels):
-        mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
-        values = sorted(set(mine["value"]))
-        for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
-            g = g.set_index("value").reindex(values)  # a missing point breaks the line instead of bridging it
-            x = np.asarray(values, float)
-            y, se = g["mean"].to_numpy(float), np.nan_to_num(g["stderr"].to_numpy(float))
-            color = METHOD_COLORS[method]
-            ax.plot(x, y, LINESTYLES[bool(dynamic)], color=color, lw=1.8, marker=BLEND_MARKERS.get(blend, "o"),
-                    ms=3 if blend != BLEND_2021 else 5)
-            ax.fill_between(x, y - se, y + se, color=color, alpha=0.15, lw=0)
-        if panel.axis == "num_videos":
-            ax.set_xscale("symlog", linthresh=1)
-            ticks = [v for v in panel.values]
-            ax.set_xticks(ticks, [fmt_value(v) for v in ticks])
-            ax.minorticks_off()
-        ax.set_title(panel.title, fontsize=11)
-        ax.set_xlabel(panel.xlabel)
-        ax.set_ylim(bottom=0)
-        ax.grid(alpha=0.3)
-        if mine.empty:
-            ax.text(0.5, 0.5, "no results", transform=ax.transAxes, ha="center", va="center", color="0.4")
-            ax.set_yticks([])
-    axes[0][0].set_ylabel(YLABEL.replace("tasks", f"{n_tasks} tasks") if n_tasks > 1 else "mean episode return")
+    n_tasks = int(curves["n_tasks"].max()) if len(curves) else 0
+    for i, (row, task) in enumerate(zip(axes, tasks)):
+        for ax, panel in zip(row, panels):
+            mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split) & (curves.task == task)]
+            _draw_curves(ax, mine, panel, title=panel.title if i == 0 else None, xlabel=i == len(tasks) - 1)
+        if task == ALL_TASKS:
+            row[0].set_ylabel(YLABEL.replace("tasks", f"{n_tasks} tasks") if n_tasks > 1 else "mean episode return")
+        else:
+            row[0].set_ylabel(f"{task}\nmean episode return")
     styles = [Line2D([], [], color="k", ls=LINESTYLES[False], label="static"),
               Line2D([], [], color="k", ls=LINESTYLES[True], label="dynamic")]
     if (curves["blend"] == BLEND_2021).any():
@@ -103,8 +89,35 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     titles = {"robustness": "Trained without distractions, evaluated with one distraction",
               "training": "Trained and evaluated with one distraction"}
     fig.suptitle(f"{titles.get(experiment, experiment)} ({spread})" + _note_lines(note, fig), fontsize=12)
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    fig.tight_layout(rect=(0, 0.4 / fig.get_figheight(), 1, 1))
     return _save(fig, path)
+
+
+def _draw_curves(ax, mine: pd.DataFrame, panel, title: str | None, xlabel: bool) -> None:
+    """One panel of :func:`curves_figure`: its curves (one task's, or the mean's) over the panel's axis."""
+    values = sorted(set(mine["value"]))
+    for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
+        g = g.set_index("value").reindex(values)  # a missing point breaks the line instead of bridging it
+        x = np.asarray(values, float)
+        y, se = g["mean"].to_numpy(float), np.nan_to_num(g["stderr"].to_numpy(float))
+        color = METHOD_COLORS[method]
+        ax.plot(x, y, LINESTYLES[bool(dynamic)], color=color, lw=1.8, marker=BLEND_MARKERS.get(blend, "o"),
+                ms=3 if blend != BLEND_2021 else 5)
+        ax.fill_between(x, y - se, y + se, color=color, alpha=0.15, lw=0)
+    if panel.axis == "num_videos":
+        ax.set_xscale("symlog", linthresh=1)
+        ticks = [v for v in panel.values]
+        ax.set_xticks(ticks, [fmt_value(v) for v in ticks])
+        ax.minorticks_off()
+    if title:
+        ax.set_title(title, fontsize=11)
+    if xlabel:
+        ax.set_xlabel(panel.xlabel)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    if mine.empty:
+        ax.text(0.5, 0.5, "no results", transform=ax.transAxes, ha="center", va="center", color="0.4")
+        ax.set_yticks([])
 
 
 def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: bool, path: str | Path,

@@ -2,7 +2,7 @@
 
 CI runs a subset of the smoke grid of experiment ``robustness`` (one method, one seed, the two
 smoke tasks, the camera at intensities 0 and 1): training, evaluation-only runs from the
-checkpoints, a failed run listed and relaunched alone, a relaunch that skips everything, the
+checkpoints (two processes at once, ``budget.eval_processes=2``), a failed run listed and relaunched alone, a relaunch that skips everything, the
 report; and the SLURM launcher up to ``sbatch``. The whole smoke grid of every experiment, and a
 launcher killed mid-way, are ``slow``.
 """
@@ -25,7 +25,7 @@ from dcs_torchrl.report.__main__ import main as report
 
 REPO = Path(__file__).resolve().parents[2]
 RUN = [sys.executable, str(REPO / "recipes" / "experiments" / "run.py"), "-m"]
-SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]",
+SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.eval_processes=2",
           "experiment.train.0.evaluate=[{axis:camera,values:[0.0,1.0]}]"]
 CARTPOLE = "SAC+RAD/cartpole-swingup/none/seed_0"
 BALL = "SAC+RAD/ball_in_cup-catch/none/seed_0"
@@ -108,7 +108,9 @@ def test_the_report_draws_the_robustness_curves(robustness, tmp_path):
     assert report([str(root), "--out", str(tmp_path), "--experiment", "robustness"]) == 0
     curves = pd.read_csv(tmp_path / "tables" / "robustness_curves.csv")
     assert set(curves["axis"]) == {"camera"} and set(curves["value"]) == {0.0, 1.0}
-    assert set(curves["n_tasks"]) == {2} and len(curves) == 2 * 2
+    mean = curves[curves["task"] == "mean"]
+    assert set(mean["n_tasks"]) == {2} and len(mean) == 2 * 2
+    assert sorted(set(curves["task"])) == ["ball_in_cup-catch", "cartpole-swingup", "mean"] and len(curves) == 3 * 2 * 2
     image = matplotlib.image.imread(tmp_path / "figures" / "robustness.png")
     assert image.shape[1] >= 900 and image.std() > 0.05
 

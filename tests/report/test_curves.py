@@ -1,10 +1,11 @@
 """Score-vs-intensity curves and the half-score points."""
 import math
 
+import matplotlib.image
 import pytest
 from synthetic_results import write_run
 
-from dcs_torchrl.report.curves import curve_table, curves_markdown, half_score_table
+from dcs_torchrl.report.curves import ALL_TASKS, curve_table, curves_markdown, half_score_table
 from dcs_torchrl.report.load import load_results
 
 TASKS = [("cartpole", "swingup"), ("cheetah", "run")]
@@ -30,22 +31,48 @@ def curves(results_dir):
 
 
 def test_points_are_means_over_tasks_and_seeds(curves):
-    qt = curves[curves.method == "QT-Opt+RAD"].set_index("value")
+    mean = curves[curves.task == ALL_TASKS]
+    qt = mean[mean.method == "QT-Opt+RAD"].set_index("value")
     assert qt["mean"].tolist() == pytest.approx([800.0, 600.0, 400.0, 100.0])
     assert qt.loc[0.2, "stderr"] == pytest.approx(10.0)  # seeds 390 and 410
     assert (qt.loc[0.2, "n"], qt.loc[0.2, "n_tasks"]) == (2, 2)
-    assert ((curves.method == "SAC") & (curves.axis == "camera")).sum() == 0  # incomplete point left out
+    assert ((mean.method == "SAC") & (mean.axis == "camera")).sum() == 0  # incomplete point left out
+
+
+def test_each_task_has_its_own_curve_beside_the_mean(curves, tmp_path):
+    from dcs_torchrl.report.curves import curve_tasks
+    from dcs_torchrl.report.figures import curves_figure
+
+    assert curve_tasks(curves) == [ALL_TASKS, "cartpole-swingup", "cheetah-run"]
+    qt = curves[(curves.method == "QT-Opt+RAD")].set_index(["task", "value"])
+    assert qt.loc[("cartpole-swingup", 0.2), "mean"] == pytest.approx(400 * 4 / 3)
+    assert qt.loc[("cheetah-run", 0.5), "mean"] == pytest.approx(100 * 2 / 3)
+    assert qt.loc[("cheetah-run", 0.2), "stderr"] == pytest.approx(10.0)
+    assert set(qt["n_tasks"].loc[["cartpole-swingup", "cheetah-run"]]) == {1}
+    # SAC camera 0.1 has cartpole only: absent from the mean, present in cartpole's own curve
+    sac = curves[(curves.method == "SAC") & (curves.axis == "camera")]
+    assert list(sac["task"]) == ["cartpole-swingup"] and list(sac["mean"]) == [300.0]
+    md = curves_markdown(curves, "robustness").splitlines()
+    assert "| QT-Opt+RAD (static) — cheetah-run | 533 ± 10 (n=2) | 400 ± 10 (n=2) | 267 ± 10 (n=2) | 67 ± 10 (n=2) |" in md
+    half = half_score_table(curves).set_index(["method", "axis", "task"])
+    assert half.loc[("QT-Opt+RAD", "camera", "cheetah-run"), "half_at"] == 0.2
+    # the figure: a row of panels per task under the mean's
+    one = curves_figure(curves[curves.task == ALL_TASKS], "robustness", tmp_path / "mean.png")
+    rows = curves_figure(curves, "robustness", tmp_path / "tasks.png")
+    heights = [matplotlib.image.imread(path).shape[0] for path in (one, rows)]
+    assert heights[1] > 2 * heights[0]
 
 
 def test_half_score_points(curves):
-    half = half_score_table(curves).set_index(["method", "axis"])
+    half = half_score_table(curves[curves.task == ALL_TASKS]).set_index(["method", "axis"])
     assert half.loc[("QT-Opt+RAD", "camera"), "half_at"] == 0.2
     assert half.loc[("QT-Opt+RAD", "camera"), "paper"] == "0.2"
     assert math.isnan(half.loc[("SAC", "color"), "half_at"])
     assert half.loc[("SAC", "color"), "paper"] == "0.6"
     md = curves_markdown(curves, "robustness")
-    assert "| camera | static | — | — | — | — | 0.2 | — | 0.2 |" in md.splitlines()
-    assert "| color | dynamic | > 1 | — | — | — | — | — | 0.6 |" in md.splitlines()
+    assert "| camera | static | mean | — | — | — | — | 0.2 | — | 0.2 |" in md.splitlines()
+    assert "| color | dynamic | mean | > 1 | — | — | — | — | — | 0.6 |" in md.splitlines()
+    assert "| color | dynamic | cheetah-run | > 1 | — | — | — | — | — | 0.6 |" in md.splitlines()
     row = "| QT-Opt+RAD (static) | 800 ± 10 (n=2) | 600 ± 10 (n=2) | 400 ± 10 (n=2) | 100 ± 10 (n=2) |"
     assert row in md.splitlines()
     assert "| SAC (dynamic) | 500 (n=1) | 450 (n=1) | 400 (n=1) |" in md.splitlines()

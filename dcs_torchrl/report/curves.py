@@ -21,7 +21,7 @@ from dcs_torchrl.report.stats import task_mean
 from dcs_torchrl.report.tables import setting_name
 
 __all__ = ["ALL_TASKS", "BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "curve_tasks", "half_score_table",
-           "half_score_markdown", "curves_markdown"]
+           "half_score_markdown", "curves_markdown", "with_defaults"]
 
 CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks",
                  "blend", "task")
@@ -51,6 +51,16 @@ def curve_tasks(curves: pd.DataFrame) -> list[str]:
         return [ALL_TASKS]
     found = list(dict.fromkeys(curves["task"]))
     return sorted(found, key=lambda t: t != ALL_TASKS)
+
+
+def with_defaults(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with the columns older curve tables lack: ``blend`` ``"paper"``, ``task`` :data:`ALL_TASKS`.
+
+    Examples:
+        >>> sorted(with_defaults(pd.DataFrame({"value": [0.0]})).columns)
+        ['blend', 'task', 'value']
+    """
+    return table.assign(**{c: d for c, d in (("blend", "paper"), ("task", ALL_TASKS)) if c not in table})
 
 
 def task_suffix(task: str) -> str:
@@ -142,7 +152,7 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
     """Markdown: per panel a table of mean ± s.e. (rows method × setting, columns intensity),
     then where each method loses half its score."""
     parts = [f"# Experiment `{experiment}`: score vs intensity", ""]
-    curves = curves.assign(task=curves["task"]) if "task" in curves else curves.assign(task=ALL_TASKS)
+    curves = with_defaults(curves)
     n_tasks = int(curves["n_tasks"].max()) if len(curves) else 0
     annotate, note = seed_counts(curves["n"])
     each = (" Rows marked `— <task>` are that task alone." if len(curve_tasks(curves)) > 1 else "")
@@ -180,8 +190,7 @@ def half_score_markdown(half: pd.DataFrame) -> str:
     if half.empty:
         return "No results."
     rows = []
-    half = half.assign(blend=half["blend"]) if "blend" in half else half.assign(blend="paper")
-    half = half.assign(task=half["task"]) if "task" in half else half.assign(task=ALL_TASKS)
+    half = with_defaults(half)
     per_task = len(curve_tasks(half)) > 1
     for (axis, split, blend, task, dynamic), g in half.groupby(["axis", "eval_split", "blend", "task", "dynamic"],
                                                               sort=False):

@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from dcs_torchrl.report.curves import ALL_TASKS, BLEND_2021, curve_tasks
+from dcs_torchrl.report.curves import ALL_TASKS, BLEND_2021, curve_tasks, with_defaults
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.methods import METHODS as REGISTRY
@@ -64,7 +64,7 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         axes_shown: only the panels of these axes (default: every panel of the experiment).
     """
     panels = [p for p in EXPERIMENTS[experiment] if axes_shown is None or p.axis in axes_shown]
-    curves = curves.assign(**{c: d for c, d in (("blend", "paper"), ("task", ALL_TASKS)) if c not in curves})
+    curves = with_defaults(curves)
     tasks = curve_tasks(curves) if len(curves) else [ALL_TASKS]
     # room for the legend under one panel; the title and legend take the same height whatever the rows
     fig = Figure(figsize=(4.2 * max(len(panels), 2), 1.0 + 3.0 * len(tasks)))

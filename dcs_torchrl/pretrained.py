@@ -30,8 +30,8 @@ from collections.abc import Hashable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Pretrained", "agent_directory", "evaluate_settings", "export_policy", "load_policy_state", "load_pretrained",
-           "shipped_agents"]
+__all__ = ["Pretrained", "agent_directory", "agent_env_settings", "checkpoint_sha256", "evaluate_settings",
+           "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
 
 _PACKAGE = Path(__file__).resolve().parent
 # Where the shipped agents are: inside an installed wheel (pyproject.toml maps recipes/pretrained
@@ -66,6 +66,34 @@ def _results(run_dir: Path) -> dict:
     except FileNotFoundError:
         raise FileNotFoundError(f"{run_dir} has no results.json: point at a finished training run "
                                 "(or an exported agent, e.g. recipes/pretrained/<name>).") from None
+
+
+def checkpoint_sha256(agent: str | os.PathLike) -> str:
+    """The SHA-256 of the checkpoint :func:`load_pretrained` loads for ``agent``: the newest one
+    whose bytes match its checksum file (:func:`~dcs_torchrl.training.checkpoint.load_latest`'s choice)."""
+    import hashlib
+
+    from dcs_torchrl.training.checkpoint import list_checkpoints
+
+    path = agent_directory(agent)
+    for _, checkpoint in reversed(list_checkpoints(path / "checkpoints")):
+        sidecar = checkpoint.with_name(checkpoint.name + ".sha256")
+        with open(checkpoint, "rb") as f:
+            digest = hashlib.file_digest(f, "sha256").hexdigest()
+        if sidecar.is_file() and sidecar.read_text().strip() == digest:
+            return digest
+    raise FileNotFoundError(f"{path}/checkpoints holds no checkpoint that verifies.")
+
+
+def agent_env_settings(config: Mapping, settings: Mapping):
+    """The resolved make_env settings (an :class:`~dcs_torchrl.envs.EnvSettings`) an agent of
+    ``config`` (its run's config) acts in under ``settings``: these over its training env's."""
+    from omegaconf import OmegaConf
+
+    from dcs_torchrl.training.envs import env_options, env_settings
+
+    env = OmegaConf.create(config).env
+    return env_settings(env.domain, env.task, {**env_options(env), **settings})
 
 
 def _build_agent(results: dict, device: str = "cpu"):
@@ -143,14 +171,14 @@ class Pretrained:
 
         ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
         seeds of the training run's final evaluation (without settings it repeats that evaluation); with
-        ``workers`` > 1 the episodes are spread over that many ``ParallelEnv`` workers (other
+        ``workers`` > 1 the episodes are spread over that many :class:`~dcs_torchrl.ParallelSuiteEnv` workers (other
         seeds per worker: other episodes). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
         """
         from dcs_torchrl.evaluation import evaluate
-        from dcs_torchrl.training.envs import close_env, env_options, env_settings, make_pixel_env, pixel_options
+        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options
 
         cfg = self._cfg
-        resolved = env_settings(cfg.env.domain, cfg.env.task, {**env_options(cfg.env), **settings})
+        resolved = agent_env_settings(cfg, settings)
         if workers > 1:
             env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
         else:  # in this process: no worker to start
@@ -164,12 +192,10 @@ class Pretrained:
         """A suite env on the agent's task with its pixel handling; ``settings`` are make_env's
         distraction settings (``benchmark``, ``dynamic``, ``camera_scale``, ``color_scale``,
         ``num_videos``, ``background_blend``, ``background_dir``, ...), over the training env's."""
-        from dcs_torchrl.training.envs import env_options, env_settings, pixel_env, pixel_options
+        from dcs_torchrl.training.envs import pixel_env, pixel_options
 
         cfg = self._cfg
-        options = {**env_options(cfg.env), **settings}
-        resolved = env_settings(cfg.env.domain, cfg.env.task, options)
-        return pixel_env(resolved, seed=seed, **pixel_options(cfg.pixels))
+        return pixel_env(agent_env_settings(cfg, settings), seed=seed, **pixel_options(cfg.pixels))
 
 
 def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False) -> Pretrained:

@@ -45,7 +45,9 @@ class RunResults:
         wall_time: seconds.
         train_env, eval_env: the resolved env settings (``EnvSettings.as_dict()``), plus
             ``embedded_videos``, the version of the embedded stand-in videos
-            (:data:`dcs_torchrl.videos.EMBEDDED_VERSION`) where the env shows them.
+            (:data:`dcs_torchrl.videos.EMBEDDED_VERSION`) where the env shows them. An
+            evaluation-only run's ``train_env`` is the trained run's record as it is: without
+            ``embedded_videos`` where that record has none (recorded before versions were: version 1).
         sweep: what the run varies in its experiment (``axis``, ``value``, ``dynamic``[, ``eval_split``]).
         eval: the final deterministic evaluation (``EvalResult.to_dict()``).
         config: the run's full resolved config.
@@ -69,13 +71,21 @@ class RunResults:
 
     @classmethod
     def from_config(cls, config: Mapping, *, experiment: str | None, steps: int, wall_time: float,
-                    train_env: Mapping, eval_env: Mapping, sweep: Mapping | None, eval: Mapping) -> "RunResults":
-        """The record of a run of ``config`` (a recipe's resolved config, as a dict)."""
+                    train_env: Mapping, eval_env: Mapping, sweep: Mapping | None, eval: Mapping,
+                    trained: bool = True) -> "RunResults":
+        """The record of a run of ``config`` (a recipe's resolved config, as a dict).
+
+        ``eval_env``, evaluated by this run, gets the current stand-in videos' version where it
+        shows them (:func:`with_videos_version`); so does ``train_env`` if this run ``trained``.
+        An evaluation-only run (``trained=False``) passes the trained run's ``train_env`` record,
+        kept as it is: the version that run recorded, or none where it recorded none.
+        """
         algo, aug = config["algo"]["name"], config["algo"]["aug"]
         return cls(
             schema=SCHEMA, experiment=experiment, method=method_name(algo, aug), algo=algo, aug=aug,
             domain=config["env"]["domain"], task=config["env"]["task"], seed=int(config["seed"]), steps=int(steps),
-            wall_time=float(wall_time), train_env=with_videos_version(train_env), eval_env=with_videos_version(eval_env),
+            wall_time=float(wall_time), train_env=with_videos_version(train_env) if trained else dict(train_env),
+            eval_env=with_videos_version(eval_env),
             sweep=None if sweep is None else dict(sweep), eval=dict(eval), config=dict(config),
         )
 

@@ -12,10 +12,17 @@ evaluation). Points are spread over ``--workers`` processes, one point per proce
 every episode's return is the one a single-env evaluation gives. Intensity 0 is the same
 undistracted env on every axis and is evaluated once.
 
-The output directory gets ``points/`` (one JSON file per evaluated point: settings, returns),
-``robustness.csv`` (a row per point), ``robustness.md`` (the half-score intensity per axis and
-the curves as a table) and ``robustness.png``. Run again, it evaluates only the points it does
-not hold yet. :func:`robustness_sweep` does the same for any TorchRL policy and env factory.
+The output directory gets ``points/`` (one JSON file per evaluated point: what defines it,
+returns), ``robustness.csv`` (a row per point), ``robustness.md`` (the half-score intensity per
+axis and the curves as a table) and ``robustness.png``. Run again, it evaluates only the points
+it does not hold yet, so an interrupted sweep resumes. A stored point counts as held only where
+everything that defines it matches this run: the episodes, the agent's checkpoint (its SHA-256),
+every resolved env setting (a changed default included) and the videos shown (the embedded
+stand-ins' version, or a ``--background-dir``'s path and a digest of its files' names and
+sizes); otherwise the point is evaluated again, and the CSV, table and figure hold only this
+run's points. An ``--out`` holding another agent's points, or this agent's from another
+checkpoint (retrained under the same name), is refused: choose another ``--out``.
+:func:`robustness_sweep` does the same for any TorchRL policy and env factory.
 """
 from __future__ import annotations
 
@@ -159,69 +166,137 @@ def _row(point: Point, result: dict, **extra) -> dict:
 
 
 # ------------------------------------------------------------------ a trained agent
-def _videos_version(overrides: dict) -> int | None:
-    """The embedded videos' version if a point shows them (points on older videos are evaluated again)."""
-    from dcs_torchrl.results import with_videos_version
-
-    return with_videos_version(overrides).get("embedded_videos")
+#: What defines a stored point (:func:`_point_id`): it is reused only where all of it matches.
+IDENTITY = ("agent", "env", "pixels", "episodes")
+_WHO = ("method", "domain", "task", "seed", "steps")
 
 
 def _agent_identity(directory: Path, results: dict) -> dict:
-    from dcs_torchrl.training.checkpoint import list_checkpoints
+    """Whose points: the run's method, task, seed and frames, and the SHA-256 of the checkpoint
+    evaluated (an agent retrained or exported again under the same name has another)."""
+    from dcs_torchrl.pretrained import checkpoint_sha256
 
-    _, newest = list_checkpoints(directory / "checkpoints")[-1]
-    digest = Path(f"{newest}.sha256").read_text().split()[0]
-    return {key: results[key] for key in ("method", "domain", "task", "seed", "steps")} | {"checkpoint_sha256": digest}
+    return {key: results[key] for key in _WHO} | {"checkpoint_sha256": checkpoint_sha256(directory)}
+
+
+def _listing_sha256(folder: Path) -> str:
+    """A digest of the path and size of every file below ``folder``: another set of videos there changes it."""
+    entries = []
+    for root, _, files in os.walk(folder, followlinks=True):
+        for name in files:
+            path = Path(root, name)
+            entries.append(f"{path.relative_to(folder).as_posix()}\t{path.stat().st_size}")
+    return hashlib.sha256("\n".join(sorted(entries)).encode()).hexdigest()
+
+
+def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
+    """Every resolved make_env setting of a point, and the videos it shows: the embedded stand-ins'
+    version (``embedded_videos``), or a folder's absolute path and ``background_listing``
+    (:func:`_listing_sha256`, computed once per folder in ``listings``)."""
+    from dcs_torchrl.pretrained import agent_env_settings
+    from dcs_torchrl.results import shows_videos, with_videos_version
+
+    env = with_videos_version(agent_env_settings(config, overrides).as_dict())
+    if shows_videos(env) and env["background_dir"]:
+        folder = os.fspath(Path(env["background_dir"]).expanduser().resolve())
+        if folder not in listings:
+            listings[folder] = _listing_sha256(Path(folder))
+        env |= {"background_dir": folder, "background_listing": listings[folder]}
+    return env
+
+
+def _point_identities(agent: dict, results: dict, settings: dict[str, dict], episodes: int) -> dict[str, dict]:
+    """Per point key, what defines its stored point (:data:`IDENTITY`)."""
+    from omegaconf import OmegaConf
+
+    from dcs_torchrl.training.envs import pixel_options
+
+    pixels = pixel_options(OmegaConf.create(results["config"]).pixels)
+    listings: dict[str, str] = {}
+    return {key: {"agent": agent, "env": _point_env(results["config"], overrides, listings), "pixels": pixels,
+                  "episodes": episodes} for key, overrides in settings.items()}
+
+
+def _point_id(record: dict) -> str:
+    """The SHA-256 of what defines a point (:data:`IDENTITY`), read from a record or an identity."""
+    return hashlib.sha256(json.dumps({k: record.get(k) for k in IDENTITY}, sort_keys=True).encode()).hexdigest()
+
+
+def _check_agent(theirs: dict, ours: dict, out: str | os.PathLike) -> None:
+    """Refuses ``out`` holding the points of another agent, or of this one's name from another checkpoint."""
+    if any(theirs.get(k) != ours[k] for k in _WHO):
+        raise FileExistsError(f"{out} holds points of another agent ({theirs}); nothing was changed: "
+                              "choose another --out for this one.")
+    stored, loaded = str(theirs.get("checkpoint_sha256")), ours["checkpoint_sha256"]
+    if stored != loaded:
+        raise FileExistsError(
+            f"{out} holds points of {ours['method']} {ours['domain']} {ours['task']} seed {ours['seed']} from another "
+            f"checkpoint (SHA-256 {stored[:12]}…, this one {loaded[:12]}…: retrained or exported again under the same "
+            "name); nothing was changed: choose another --out for this one.")
+
+
+def _stored_points(stored: Path, agent: dict, out: str | os.PathLike) -> dict[str, dict]:
+    """The evaluations in ``stored`` by point id (:func:`_point_id`), once every one is checked to be ``agent``'s."""
+    records = [json.loads(path.read_text()) for path in sorted(stored.glob("*.json"))]
+    for record in records:
+        _check_agent(record.get("agent", {}), agent, out)
+    return {_point_id(record): record["eval"] for record in records}
+
+
+def _background(background_dir: str | os.PathLike | None) -> tuple[str | None, int]:
+    """The background axis' folder (``None``: the embedded videos) and its b: 60 videos (the
+    paper's, Sec. 5.1), or all of a folder that holds fewer."""
+    from dcs_torchrl.distractions.background import as_video_source
+
+    if background_dir is None:
+        return None, 60
+    background_dir = os.fspath(Path(background_dir).expanduser())
+    if not Path(background_dir).is_dir():
+        raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
+                                "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
+    return background_dir, min(60, len(as_video_source(background_dir, "train")))
 
 
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
                 workers: int = 1, background_dir: str | os.PathLike | None = None, progress: bool = True) -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
-    Each evaluated point is written to ``out/points/<label>.json`` as soon as it is done; points
-    already there (same agent, episodes and env) are not evaluated again. ``workers`` processes
-    each evaluate whole points. Returns the rows of :func:`write_outputs`.
+    Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
+    point is reused only where everything that defines it (:data:`IDENTITY`) matches: the
+    episodes, the agent (method, task, seed, frames and its checkpoint's SHA-256), every resolved
+    make_env setting and the pixels the policy sees, and the videos shown (the embedded
+    stand-ins' version, or a folder's path and a digest of its files' names and sizes). Other
+    points are evaluated (stored ones that do not match stay, for a run that matches them).
+    ``out`` holding another agent's points, or this agent's from another checkpoint, is refused
+    before anything is evaluated. ``workers`` processes each evaluate whole points.
+
+    Returns:
+        the rows of ``points`` only (:func:`write_outputs`).
     """
     from dcs_torchrl.pretrained import _results, agent_directory, evaluate_settings
 
     directory = agent_directory(agent)
     results = _results(directory)
-    identity = _agent_identity(directory, results)
     if episodes < 1 or workers < 1:
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
-    if background_dir is not None:
-        background_dir = os.fspath(Path(background_dir).expanduser())
-        if not Path(background_dir).is_dir():
-            raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
-                                    "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
-    from dcs_torchrl.distractions.background import as_video_source
-
-    # b = 60 videos (the paper's, Sec. 5.1), or all of a folder that holds fewer
-    num_videos = 60 if background_dir is None else min(60, len(as_video_source(background_dir, "train")))
+    background_dir, num_videos = _background(background_dir)
+    keys = [p.key(background_dir, num_videos) for p in points]
+    settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
+    identity = _agent_identity(directory, results)
+    identities = _point_identities(identity, results, settings, episodes)
     stored = Path(out) / "points"
     stored.mkdir(parents=True, exist_ok=True)
-    done: dict[str, dict] = {}
-    for path in sorted(stored.glob("*.json")):
-        record = json.loads(path.read_text())
-        if record["agent"] != identity:
-            raise FileExistsError(f"{out} holds points of another agent ({record['agent']}); nothing was changed: "
-                                  "choose another --out for this one.")
-        if record["episodes"] == episodes and record.get("embedded_videos") == _videos_version(record["overrides"]):
-            done[record["key"]] = record["eval"]
-
-    todo = {p.key(background_dir, num_videos): p.overrides(background_dir, num_videos) for p in points}
-    todo = {key: overrides for key, overrides in todo.items() if key not in done}
+    done = _stored_points(stored, identity, out)
+    todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
     bar = _progress(list(todo), progress)
     for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers):
-        done[key] = result
-        record = {"agent": identity, "key": key, "overrides": todo[key], "episodes": episodes,
-                  "embedded_videos": _videos_version(todo[key]), "eval": result}
-        name = hashlib.sha256(f"{key}|{episodes}".encode()).hexdigest()[:16]
-        write_json_atomic(stored / f"{name}.json", record)
+        point_id = _point_id(identities[key])
+        done[point_id] = result
+        write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})
         bar.update(1)
     bar.close()
     who = {k: identity[k] for k in ("method", "domain", "task", "seed")}
-    return [_row(p, done[p.key(background_dir, num_videos)], **who) for p in points]
+    return [_row(p, done[_point_id(identities[key])], **who) for p, key in zip(points, keys)]
 
 
 # --------------------------------------------------------------------------------- outputs
@@ -271,7 +346,13 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "")
 def main(argv=None) -> dict[str, Path]:
     parser = argparse.ArgumentParser(
         prog="python -m dcs_torchrl.robustness",
-        description="An agent's score as each distraction grows: one distraction at a time, at each intensity.")
+        description="An agent's score as each distraction grows: one distraction at a time, at each intensity.",
+        epilog="Each evaluated point is stored in <out>/points/ as soon as it is done; run again, the command "
+               "evaluates only the points it does not hold (an interrupted sweep resumes). A stored point is reused "
+               "only where the episodes, the agent's checkpoint (SHA-256), every resolved env setting and the videos "
+               "shown (stand-in version, or --background-dir's path and file listing) all match; the CSV, table and "
+               "figure hold this run's points only. An --out with another agent's points, or with this agent's from "
+               "another checkpoint (retrained under the same name), is refused: choose another --out.")
     parser.add_argument("agent", help="a shipped agent's name (e.g. sac_rad_cartpole_swingup), an exported agent "
                                       "or a finished training run directory")
     parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES))
@@ -284,7 +365,8 @@ def main(argv=None) -> dict[str, Path]:
     parser.add_argument("--background-dir", default=None, help="DAVIS 2017 JPEGImages/480p or a folder of videos "
                                                               "(default: the embedded stand-in videos)")
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes, a point each")
-    parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>)")
+    parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
+                                                    "agent's checkpoint per directory")
     parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
     out = Path(args.out) if args.out else Path("robustness") / Path(args.agent).name

@@ -97,3 +97,137 @@ def test_workers_end_when_the_command_is_killed(tmp_path):
         time.sleep(0.5)
         alive = [p for p in alive if os.path.exists(f"/proc/{p}") and "Z" not in open(f"/proc/{p}/stat").read().split()[2]]
     assert not alive, f"workers {alive} outlived the command"
+
+
+# ------------------------------------------------- which stored points a run may reuse
+@pytest.fixture
+def evaluated(monkeypatch):
+    """Stands in for the evaluation (what these tests check is which points are evaluated): records
+    the settings of each one, and returns a result saying which evaluation it was (its returns)."""
+    calls = []
+
+    def evaluate_settings(agent, settings, episodes, **_):
+        for key, overrides in settings.items():
+            calls.append(overrides)
+            returns = [float(len(calls))] * episodes
+            yield key, {"mean": returns[0], "stderr": 0.0, "episodes": episodes, "returns": returns}, 0.0
+
+    monkeypatch.setattr("dcs_torchrl.pretrained.evaluate_settings", evaluate_settings)
+    return calls
+
+
+def sweep(out, points, episodes=1, agent=AGENT, **kwargs):
+    return sweep_agent(agent, points, out, episodes=episodes, progress=False, **kwargs)
+
+
+COLOR = [Point("color", 0.0, False), Point("color", 0.5, False)]
+
+
+def test_another_episode_count_evaluates_every_point_again(tmp_path, evaluated):
+    first = sweep(tmp_path, COLOR, episodes=1)
+    assert len(evaluated) == 2
+    second = sweep(tmp_path, COLOR, episodes=2)
+    assert len(evaluated) == 4 and [r["episodes"] for r in second] == [2, 2]
+    assert sweep(tmp_path, COLOR, episodes=1) == first and len(evaluated) == 4  # both kept, each reused
+
+
+def _retrain(directory):
+    """Another checkpoint in place of ``directory``'s, at the same frames: the agent retrained under its name."""
+    import torch
+
+    from dcs_torchrl.training.checkpoint import list_checkpoints, save_checkpoint
+
+    frames, path = list_checkpoints(directory / "checkpoints")[-1]
+    state = torch.load(path, weights_only=False)
+    weight = next(v for v in state["policy"].values() if v.is_floating_point())
+    weight += 0.01
+    save_checkpoint(directory / "checkpoints", frames, state, keep=1)
+
+
+def test_an_agent_retrained_under_the_same_name_is_refused(tmp_path, evaluated):
+    import shutil
+
+    agent = shutil.copytree(shipped_agents()[AGENT], tmp_path / "agent")
+    sweep(tmp_path / "out", COLOR, agent=agent)
+    _retrain(agent)
+    with pytest.raises(FileExistsError, match="another checkpoint.*choose another --out"):
+        sweep(tmp_path / "out", COLOR, agent=agent)
+    assert len(evaluated) == 2
+    sweep(tmp_path / "retrained", COLOR, agent=agent)
+    assert len(evaluated) == 4
+
+    # a newer checkpoint that does not verify is not the one loaded: the same agent, its points reused
+    (agent / "checkpoints" / "checkpoint_000000200000.pt").write_bytes(b"a write that did not finish")
+    (agent / "checkpoints" / "checkpoint_000000200000.pt.sha256").write_text("0" * 64)
+    sweep(tmp_path / "retrained", COLOR, agent=agent)
+    assert len(evaluated) == 4
+
+
+def test_points_on_other_stand_in_videos_are_evaluated_again(tmp_path, evaluated, monkeypatch):
+    from dcs_torchrl.videos import EMBEDDED_VERSION
+
+    points = [Point("background", 0.5, False), Point("camera", 0.5, False)]
+    with monkeypatch.context() as older:
+        older.setattr("dcs_torchrl.videos.embedded.EMBEDDED_VERSION", EMBEDDED_VERSION - 1)
+        sweep(tmp_path, points)
+    rows = sweep(tmp_path, points)
+    assert [o.get("background_blend") for o in evaluated] == [0.5, None, 0.5]  # the camera point shows no videos
+    assert rows[0]["returns"] == [3.0]
+    records = [json.loads(p.read_text()) for p in (tmp_path / "points").iterdir()]
+    assert sorted(r["env"].get("embedded_videos", 0) for r in records) == [0, EMBEDDED_VERSION - 1, EMBEDDED_VERSION]
+
+
+def test_points_on_another_video_folder_are_evaluated_again(tmp_path, evaluated, monkeypatch):
+    from videos.files import write_frames
+
+    folder = tmp_path / "videos"
+    for i in range(2):
+        write_frames(folder / f"clip{i}", 2)
+    points = [Point("background", 0.5, False), Point("camera", 0.5, False)]
+    sweep(tmp_path / "out", points, background_dir=folder)
+    monkeypatch.chdir(tmp_path)
+    sweep(tmp_path / "out", points, background_dir="videos")  # the same folder by another path: reused
+    assert len(evaluated) == 2
+    write_frames(folder / "clip1", 3)  # another frame in a clip
+    sweep(tmp_path / "out", points, background_dir=folder)
+    assert [o.get("background_blend") for o in evaluated] == [0.5, None, 0.5]
+
+
+def test_a_changed_env_default_evaluates_every_point_again(tmp_path, evaluated, monkeypatch):
+    from types import MappingProxyType
+
+    import dcs_torchrl.envs
+
+    sweep(tmp_path, COLOR)
+    defaults = {**dcs_torchrl.envs.OPTION_DEFAULTS, "texture_size": 128}  # no override sets it
+    monkeypatch.setattr(dcs_torchrl.envs, "OPTION_DEFAULTS", MappingProxyType(defaults))
+    sweep(tmp_path, COLOR)
+    assert len(evaluated) == 4
+
+
+def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkeypatch):
+    import dcs_torchrl.pretrained
+
+    evaluate_settings = dcs_torchrl.pretrained.evaluate_settings
+    points = sweep_points(["color"], [0.0, 1.0])
+    whole = sweep(tmp_path / "whole", points)
+
+    class Killed(Exception):
+        pass
+
+    def killed_after_one(agent, settings, episodes, **kwargs):
+        yield next(evaluate_settings(agent, settings, episodes, **kwargs))
+        raise Killed
+
+    monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", killed_after_one)
+    with pytest.raises(Killed):
+        sweep(tmp_path / "resumed", points)
+    assert len(list((tmp_path / "resumed" / "points").iterdir())) == 1
+    resumed = []
+
+    def counted(agent, settings, episodes, **kwargs):
+        resumed.extend(settings.values())
+        yield from evaluate_settings(agent, settings, episodes, **kwargs)
+
+    monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", counted)
+    assert sweep(tmp_path / "resumed", points) == whole and len(resumed) == 1

@@ -123,6 +123,7 @@ def evaluate_checkpoint(
         results[index] = RunResults.from_config(
             config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=seconds,
             train_env=trained["train_env"], eval_env=eval_settings.as_dict(), sweep=evaluation.sweep, eval=result,
+            trained=False,  # the trained run's train_env record: the videos it recorded, not today's
         ).as_dict()
         run.write_results(results[index])
     return results

@@ -19,7 +19,8 @@ symbol                                         used by, and why
                                                lazily).
 ``DMControlEnv._env``                          :mod:`dcs_torchrl._scene`: the wrapped
                                                dm_control env, for its ``physics`` (no public
-                                               accessor).
+                                               accessor); :mod:`dcs_torchrl.gym_env`: its
+                                               ``control_timestep()``, for ``render_fps``.
 ``Physics._contexts``,                         :mod:`dcs_torchrl.render`: a render context
 ``Physics._free_rendering_contexts``           made by someone else with other settings is
                                                freed before the suite's own is made.
@@ -56,7 +57,7 @@ from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_
 from torchrl.objectives.utils import _vmap_func as vmap_func
 
 __all__ = [
-    "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "dm_physics",
+    "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "control_timestep", "dm_physics",
     "free_foreign_render_contexts", "priority_weight", "reduce_loss", "replace_set_seed", "sac_alpha_loss",
     "set_missing_tolerance", "value_estimator_kwargs", "vmap_func",
 ]
@@ -65,7 +66,7 @@ __all__ = [
 PRIVATE_SYMBOLS = (
     ("torchrl.envs.EnvBase", "_set_seed", "dcs_torchrl.distractions.base"),
     ("torchrl.envs.Transform", "_container", "dcs_torchrl._scene"),
-    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene"),
+    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env"),
     ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render"),
     ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render"),
     ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.modules.augment"),
@@ -100,6 +101,11 @@ def container_of(transform):
 def dm_physics(base_env):
     """The dm_control ``Physics`` of a TorchRL ``DMControlEnv`` / ``DMControlWrapper``."""
     return base_env._env.physics
+
+
+def control_timestep(base_env) -> float:
+    """Seconds of simulated time per control step of a TorchRL ``DMControlEnv`` (before its frame skip)."""
+    return float(base_env._env.control_timestep())
 
 
 def free_foreign_render_contexts(physics) -> None:

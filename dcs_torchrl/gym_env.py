@@ -1,0 +1,321 @@
+"""Every preset of the suite as a Gymnasium env, for training loops that do not use TorchRL.
+
+Importing this module registers ``dcs/<domain>-<task>-<benchmark>[-dynamic]-v0`` for every
+dm_control suite task (``dm_control.suite.ALL_TASKS``) and every benchmark of
+:data:`dcs_torchrl.BENCHMARKS`, so that ``gymnasium.make`` builds any preset; keyword
+arguments of ``gymnasium.make`` are :func:`~dcs_torchrl.make_env` settings. Gymnasium 1.x
+loads no plugin entry points, so the ids exist once this module is imported; the id
+``"dcs_torchrl.gym_env:dcs/cartpole-swingup-medium-v0"`` imports it on the way (what a
+string config or a spawned worker needs).
+
+The env is an adapter over :func:`~dcs_torchrl.make_env`, not a second implementation: it
+steps that TorchRL env and hands its tensors over as NumPy arrays, so that for the same seed
+and actions its frames are ``make_env``'s, frame for frame. ``docs/gymnasium.md`` has a
+complete loop, frame stacking and vector envs.
+
+Examples:
+    >>> import gymnasium
+    >>> import dcs_torchrl.gym_env  # registers the dcs/ ids
+    >>> env = gymnasium.make("dcs/cheetah-run-medium-dynamic-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, obs.dtype
+    ((84, 84, 3), dtype('uint8'))
+    >>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+    >>> env.close()
+"""
+from __future__ import annotations
+
+import inspect
+import numbers
+
+import numpy as np
+import torch
+from dm_control import suite
+from tensordict import TensorDict
+from torchrl.data import Bounded
+
+try:
+    import gymnasium
+    from gymnasium import spaces
+except ModuleNotFoundError as error:  # only Gymnasium itself missing gets the install hint
+    if error.name != "gymnasium" and not (error.name or "").startswith("gymnasium."):
+        raise
+    raise ModuleNotFoundError(
+        'dcs_torchrl.gym_env needs Gymnasium, an optional extra of the package: pip install "dcs-torchrl[gym]" '
+        '(in a clone: pip install -e ".[gym]").',
+        name="gymnasium",
+    ) from error
+
+from dcs_torchrl import presets
+from dcs_torchrl._private_api import control_timestep
+from dcs_torchrl.envs import make_env
+
+__all__ = ["DistractingControlEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
+
+#: The Gymnasium namespace of the suite's ids.
+NAMESPACE = "dcs"
+#: What an observation can be: the frame alone, or a ``Dict`` of the frame, the physics state and
+#: (with ``expose_distractions=True``) the distraction state.
+OBS_TYPES = ("pixels", "dict")
+_VERSION = 0
+# make_env's keywords, each a setting of the Gymnasium env; pixels_only follows from obs_type.
+_MAKE_ENV_SETTINGS = tuple(
+    name for name, p in inspect.signature(make_env).parameters.items()
+    if p.kind is inspect.Parameter.KEYWORD_ONLY and name != "pixels_only"
+)
+
+
+def env_id(domain: str, task: str, benchmark: str = "none", dynamic: bool = False) -> str:
+    """The Gymnasium id of a preset: ``dcs/<domain>-<task>-<benchmark>[-dynamic]-v0``.
+
+    Examples:
+        >>> env_id("ball_in_cup", "catch", "medium", dynamic=True)
+        'dcs/ball_in_cup-catch-medium-dynamic-v0'
+    """
+    return f"{NAMESPACE}/{domain}-{task}-{benchmark}{'-dynamic' if dynamic else ''}-v{_VERSION}"
+
+
+def register_envs() -> list[str]:
+    """Registers every task (``dm_control.suite.ALL_TASKS``) with every benchmark, static and
+    dynamic, in Gymnasium's registry; returns the ids. Idempotent (ids already there are kept).
+
+    Called when this module is imported. ``dog fetch`` is registered but, as with
+    :func:`~dcs_torchrl.make_env`, needs ``camera_id=2`` (its cameras 0 and 1 track a target).
+
+    Examples:
+        >>> "dcs/walker-walk-hard-dynamic-v0" in register_envs()
+        True
+    """
+    ids = []
+    for domain, task in suite.ALL_TASKS:
+        for benchmark in presets.BENCHMARKS:
+            for dynamic in (False, True):
+                name = env_id(domain, task, benchmark, dynamic)
+                if name not in gymnasium.registry:
+                    gymnasium.register(
+                        id=name,
+                        entry_point=f"{__name__}:DistractingControlEnv",
+                        kwargs={"domain": domain, "task": task, "benchmark": benchmark, "dynamic": dynamic,
+                                "registered_id": name},
+                    )
+                ids.append(name)
+    return ids
+
+
+def _box(spec) -> spaces.Box:
+    """The Gymnasium ``Box`` of a TorchRL spec: a ``Bounded`` one's bounds, else the widest (infinite for floats)."""
+    dtype = torch.empty((), dtype=spec.dtype).numpy().dtype
+    if isinstance(spec, Bounded):
+        low, high = spec.space.low.cpu().numpy(), spec.space.high.cpu().numpy()
+    elif np.issubdtype(dtype, np.floating):
+        low, high = -np.inf, np.inf
+    else:
+        low, high = np.iinfo(dtype).min, np.iinfo(dtype).max
+    return spaces.Box(low=low, high=high, shape=tuple(spec.shape), dtype=dtype)
+
+
+class DistractingControlEnv(gymnasium.Env):
+    """A Distracting Control Suite env with Gymnasium's API, over :func:`~dcs_torchrl.make_env`.
+
+    Each :meth:`step` is one step of the TorchRL env ``make_env`` builds (``action_repeat``
+    physics steps, the distractions, one render); the arrays it returns are that env's
+    tensors, so the frames are ``make_env``'s for the same seed and actions.
+
+    Args:
+        domain, task (str): a dm_control suite task, e.g. ``"cheetah", "run"``.
+
+    Keyword Args:
+        obs_type (str): ``"pixels"`` (default): the observation is the frame, a
+            ``Box(0, 255, (height, width, 3), uint8)``. ``"dict"``: a ``Dict`` with ``"pixels"``
+            (the frame), ``"state"`` (the task's physics observations, concatenated in
+            dm_control's order, float64) and, with ``expose_distractions=True``,
+            ``"distractions"`` (``"camera"``, ``"color"``, ``"background"``: what
+            ``make_env(..., expose_distractions=True)`` reports).
+        render_mode (str, optional): ``None`` or ``"rgb_array"``: :meth:`render` returns the
+            last frame, the observation's pixels (rendered once per step, not twice).
+            ``gymnasium.make`` turns ``"rgb_array_list"`` and ``"human"`` into wrappers.
+        registered_id (str, optional): set by the registry: the id ``gymnasium.make`` was given,
+            whose task, benchmark and static/dynamic keywords must not contradict it.
+        **settings: any keyword of :func:`~dcs_torchrl.make_env` but ``pixels_only`` (which
+            ``obs_type`` decides): ``benchmark``, ``dynamic``, ``seed``, ``camera_scale``,
+            ``height``, ``render_profile``, ... ``seed`` seeds as ``make_env(seed=...)``
+            does; ``reset(seed=s)`` does the same later.
+
+    Seeding: ``reset(seed=s)`` seeds the physics and every distraction as ``make_env(seed=s)``
+    does (``env.set_seed(s)``), then resets: its frames are those of ``make_env(seed=s)``
+    followed by ``reset()``. ``reset()`` without a seed continues the streams, as the TorchRL
+    env does across its resets.
+
+    Episodes end as dm_control's do: at the task's time limit (1000 control steps on the
+    paper's six tasks, so ``ceil(1000 / action_repeat)`` agent steps) with ``truncated=True``
+    and ``terminated=False``; ``terminated=True`` only where the task itself ends the episode
+    (discount 0, as TorchRL's ``DMControlEnv`` reports it). Step after either and the env
+    asks for a :meth:`reset`.
+
+    Attributes:
+        torchrl_env: the ``make_env`` env it steps.
+
+    Examples:
+        >>> from dcs_torchrl.gym_env import DistractingControlEnv
+        >>> env = DistractingControlEnv("cartpole", "swingup", benchmark="medium", obs_type="dict",
+        ...                             render_mode="rgb_array")
+        >>> obs, info = env.reset(seed=0)
+        >>> obs["pixels"].shape, obs["state"].shape, env.action_space
+        ((84, 84, 3), (5,), Box(-1.0, 1.0, (1,), float64))
+        >>> bool((env.render() == obs["pixels"]).all())
+        True
+        >>> env.close()
+    """
+
+    metadata = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, domain: str, task: str, *, obs_type: str = "pixels", render_mode: str | None = None,
+                 registered_id: str | None = None, **settings):
+        if registered_id is not None:
+            _check_id(registered_id, domain, task, settings.get("benchmark", "none"), settings.get("dynamic", False))
+        if obs_type not in OBS_TYPES:
+            raise ValueError(f"unknown obs_type {obs_type!r}; choose one of {list(OBS_TYPES)}.")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"unknown render_mode {render_mode!r}; choose one of {[None, *self.metadata['render_modes']]} "
+                "(gymnasium.make(..., render_mode='rgb_array_list' or 'human') wraps 'rgb_array')."
+            )
+        if "pixels_only" in settings:
+            raise ValueError(
+                "pixels_only is not a setting of the Gymnasium env: obs_type decides it; pass "
+                "obs_type='pixels' (the frame) or obs_type='dict' (the frame and the physics state)."
+            )
+        unknown = sorted(set(settings) - set(_MAKE_ENV_SETTINGS))
+        if unknown:
+            raise ValueError(
+                f"unknown env setting(s) {unknown}: choose among {list(_MAKE_ENV_SETTINGS)} (make_env's) "
+                "or obs_type, render_mode."
+            )
+        if settings.get("expose_distractions") and obs_type != "dict":
+            raise ValueError(
+                "expose_distractions=True adds the distraction state to a Dict observation: pass obs_type='dict' too."
+            )
+        seed = settings.pop("seed", None)
+        if seed is not None:
+            seed = _checked_seed(seed)
+        self.obs_type = obs_type
+        self.render_mode = render_mode
+        self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", **settings)
+        env = self.torchrl_env
+        base = env.base_env
+        self._action_dtype = env.action_spec.dtype
+        self._action_shape = tuple(env.action_spec.shape)
+        self.action_space = _box(env.action_spec)
+        pixels = spaces.Box(0, 255, tuple(env.observation_spec["pixels"].shape), np.uint8)
+        if obs_type == "pixels":
+            self.observation_space = pixels
+            self._state_keys: list = []
+            self._distraction_keys: list = []
+        else:
+            self._state_keys = list(base.observation_spec.keys(True, True))
+            size = sum(int(np.prod(base.observation_spec[k].shape)) for k in self._state_keys)
+            observation = {"pixels": pixels, "state": spaces.Box(-np.inf, np.inf, (size,), np.float64)}
+            self._distraction_keys = []
+            if "distractions" in env.observation_spec.keys():
+                distractions = env.observation_spec["distractions"]
+                self._distraction_keys = list(distractions.keys())
+                observation["distractions"] = spaces.Dict({k: _box(distractions[k]) for k in self._distraction_keys})
+            self.observation_space = spaces.Dict(observation)
+        # instance metadata: the frame rate of this task and action repeat (RecordVideo reads it)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / (control_timestep(base) * base.wrapper_frame_skip)}
+        self._frame: np.ndarray | None = None
+        self._needs_reset = True
+        self._closed = False
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Starts an episode; ``seed`` reseeds the physics and every distraction first.
+
+        Args:
+            seed (int, optional): as ``make_env(seed=seed)``; ``None`` continues the streams.
+            options (dict, optional): none are defined; ``None`` or ``{}``.
+
+        Returns:
+            ``(observation, info)``; ``info`` is an empty dict.
+        """
+        if options:
+            raise ValueError(f"reset takes no options, got {sorted(options)}; pass options=None (or {{}}).")
+        if seed is not None:
+            seed = _checked_seed(seed)
+        super().reset(seed=seed)
+        if seed is not None:
+            self.torchrl_env.set_seed(seed)
+        td = self.torchrl_env.reset()
+        self._needs_reset = False
+        return self._observation(td), {}
+
+    def step(self, action):
+        """One agent step: ``action_repeat`` physics steps, the distractions, one render.
+
+        Returns:
+            ``(observation, reward, terminated, truncated, info)``, ``reward`` the sum over the
+            action repeat, as in ``make_env``'s env.
+        """
+        if self._needs_reset:
+            raise gymnasium.error.ResetNeeded(
+                "call reset() before step(): the env starts an episode at reset, and starts none after an "
+                "episode ended (terminated or truncated)."
+            )
+        action = np.asarray(action)
+        if action.shape != self._action_shape:
+            raise ValueError(
+                f"action must have shape {self._action_shape} (the action space {self.action_space}), got {action.shape}."
+            )
+        td = TensorDict({"action": torch.as_tensor(action, dtype=self._action_dtype)}, batch_size=())
+        next_td = self.torchrl_env.step(td)["next"]
+        terminated = bool(next_td["terminated"])
+        truncated = bool(next_td["truncated"])
+        self._needs_reset = terminated or truncated
+        return self._observation(next_td), float(next_td["reward"]), terminated, truncated, {}
+
+    def render(self):
+        """The last frame (``render_mode="rgb_array"``), a copy of the observation's pixels: no second
+        render. ``None`` without a render mode."""
+        if self.render_mode is None:
+            return None
+        if self._frame is None:
+            raise gymnasium.error.ResetNeeded("call reset() before render(): the first frame is rendered at reset.")
+        return self._frame.copy()
+
+    def close(self):
+        """Closes the TorchRL env (and so its render context); calling it twice is harmless."""
+        if not self._closed:
+            self._closed = True
+            self.torchrl_env.close()
+
+    # -------------------------------------------------------------- helpers
+    def _observation(self, td):
+        frame = td["pixels"].cpu().numpy()
+        self._frame = frame
+        if self.obs_type == "pixels":
+            return frame
+        state = np.concatenate([td[k].cpu().numpy().reshape(-1) for k in self._state_keys])
+        state = state.astype(np.float64, copy=False)
+        obs = {"pixels": frame, "state": state}
+        if self._distraction_keys:
+            obs["distractions"] = {k: td["distractions", k].cpu().numpy() for k in self._distraction_keys}
+        return obs
+
+
+def _check_id(registered_id: str, domain: str, task: str, benchmark: str, dynamic: bool) -> None:
+    """Refuses ``gymnasium.make(id, ...)`` keywords that name another preset than the id does."""
+    asked = env_id(domain, task, benchmark, bool(dynamic))
+    if asked != registered_id:
+        raise ValueError(
+            f"gymnasium.make({registered_id!r}) was given keywords for another preset ({asked!r}): make that id "
+            "instead, or override single settings of this one (camera_scale=..., num_videos=..., ...)."
+        )
+
+
+def _checked_seed(seed) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= int(seed) < 2**32:
+        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {seed!r}.")
+    return int(seed)
+
+
+register_envs()

@@ -22,6 +22,7 @@ from dcs_torchrl.distractions import (  # noqa: E402
     DistractionTransform,
 )
 from dcs_torchrl.envs import EnvSettings, make_env, resolve_settings  # noqa: E402
+from dcs_torchrl.parallel import ParallelSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
 from dcs_torchrl.render import RenderPixels  # noqa: E402
 
@@ -30,6 +31,7 @@ __all__ = [
     "BackgroundDistraction",
     "EnvSettings",
     "make_env",
+    "ParallelSuiteEnv",
     "resolve_settings",
     "TASKS",
     "CameraDistraction",

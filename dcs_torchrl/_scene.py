@@ -15,10 +15,11 @@ from torchrl.envs import Compose, DMControlWrapper, EnvBase, Transform, Transfor
 from torchrl.envs.batched_envs import BatchedEnvBase
 
 from dcs_torchrl._private_api import container_of, dm_physics
+from dcs_torchrl.parallel import ParallelSuiteEnv
 
 _FACTORY_HINT = (
     "build the suite inside each worker instead, e.g. "
-    "ParallelEnv(n, functools.partial(dcs_torchrl.make_env, 'cheetah', 'run', ...))"
+    "ParallelSuiteEnv(n, functools.partial(dcs_torchrl.make_env, 'cheetah', 'run', ...))"
 )
 
 
@@ -89,7 +90,7 @@ def locate(transform: Transform, *, strict: bool) -> Scene | None:
     while isinstance(base, TransformedEnv):  # nested with auto_unwrap=False
         chain = _flatten(base.transform) + chain
         base = base.base_env
-    if isinstance(base, BatchedEnvBase):
+    if isinstance(base, (BatchedEnvBase, ParallelSuiteEnv)):
         raise RuntimeError(
             f"{name} is placed over a {type(base).__name__}, whose dm_control physics live in "
             f"its workers (other processes or sub-envs), out of this transform's reach: {_FACTORY_HINT}."

@@ -1,8 +1,8 @@
 """Evaluation protocol: N full episodes of the deterministic policy, mean and standard error.
 
 Stone et al. (2021), Sec. 5: results "evaluated for 100 episodes", mean and standard error (docs/paper.md).
-:func:`evaluate` works on a single TorchRL env or a batched one (``SerialEnv``/``ParallelEnv``,
-or any env with a 1-d batch size): every sub-env runs whole episodes, new episodes are only
+:func:`evaluate` works on a single TorchRL env or a batched one (``SerialEnv``, TorchRL's
+``ParallelEnv``, the suite's :class:`~dcs_torchrl.ParallelSuiteEnv`, or any env with a 1-d batch size): every sub-env runs whole episodes, new episodes are only
 started while fewer than ``episodes`` have been started, and every started episode is run to its
 end, so short episodes are not over-represented. Returns are reported in the order the episodes
 were started (sub-env index order within a step).

@@ -1,14 +1,17 @@
 """make_env: presets as data, overrides, seeding, and TorchRL's batched envs and collectors."""
 import functools
 
+import numpy as np
 import pytest
 import torch
+from dm_control.mujoco import engine
 from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.envs import DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import BENCHMARKS, TASKS, make_env, resolve_settings
+from dcs_torchrl.presets import action_repeat
 from dcs_test_utils import PAPER_TASKS, physics_of
 
 
@@ -179,3 +182,35 @@ def test_env_settings_have_one_source():
     assert [f.name for f in dataclasses.fields(EvalEnvConfig)] == list(ENV_OPTIONS)
     with pytest.raises(ValueError, match=r"unknown env setting\(s\) \['cam_scale'\]: choose among"):
         resolve_settings("cartpole", "swingup", cam_scale=0.1)
+
+
+def _reference_camera(domain: str) -> int:
+    """The camera the authors' 2021 code renders ``domain`` from (``distracting_control/suite.py``,
+    ``load``: ``render_kwargs["camera_id"] = 2 if domain_name == "quadruped" else 0``)."""
+    return 2 if domain == "quadruped" else 0
+
+
+def _one_task_per_domain():
+    from dm_control import suite
+
+    return list({domain: (domain, task) for domain, task in reversed(suite.ALL_TASKS)}.values())
+
+
+@pytest.mark.parametrize("domain,task", _one_task_per_domain())
+def test_every_domain_renders_from_the_2021_codes_camera(domain, task):
+    """The frame make_env shows is the render of the 2021 code's camera, and the camera distraction
+    moves that camera: for the paper's six tasks and every other domain the suite accepts."""
+    camera_id = _reference_camera(domain)
+    size = 32
+    env = make_env(domain, task, height=size, width=size, seed=1)
+    plain = TransformedEnv(DMControlEnv(domain, task, from_pixels=False, frame_skip=action_repeat(domain, task)),
+                           dcs.RenderPixels(size, size, camera_id=camera_id))
+    plain.set_seed(1)
+    shown = env.reset()["pixels"]
+    assert torch.equal(shown, plain.reset()["pixels"])
+    physics = physics_of(env)
+    views = [engine.Camera(physics, size, size, c).render() for c in range(physics.model.ncam)]
+    assert all(not np.array_equal(views[camera_id], v) for c, v in enumerate(views) if c != camera_id)  # cameras differ
+    assert resolve_settings(domain, task, benchmark="medium").camera_id == camera_id
+    env.close()
+    plain.close()

@@ -1,11 +1,13 @@
 """The evaluation protocol on real dm_control physics (cartpole swingup from states)."""
+import functools
 import math
 
 import pytest
 import torch
 from tensordict.nn import TensorDictSequential
-from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, SerialEnv, TransformedEnv
+from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, ParallelEnv, SerialEnv, TransformedEnv
 
+from dcs_torchrl import ParallelSuiteEnv
 from dcs_torchrl.modules import make_encoder, make_sac_actor
 from dcs_torchrl.evaluation import EvalResult, evaluate
 
@@ -107,3 +109,37 @@ def test_evaluate_errors():
         evaluate(_env(), _policy(), 0)
     with pytest.raises(RuntimeError, match="0 of 1 episodes finished after max_steps=5"):
         evaluate(_env(), _policy(), 1, max_steps=5)
+
+
+def _sub_env_seeds(seed: int, num_envs: int) -> list[int]:
+    """The seed each sub-env of a batched env gets from ``set_seed(seed)``: TorchRL's chain, the
+    next sub-env's seed being what the previous one's ``set_seed`` returns."""
+    seeds = [seed]
+    for _ in range(num_envs - 1):
+        seeds.append(_env().set_seed(seeds[-1]))
+    return seeds
+
+
+@pytest.mark.parametrize("batched, num_envs, episodes", [
+    ("serial", 2, 5),    # sub-env 0 runs episodes 0, 2, 4; sub-env 1 runs 1, 3
+    ("serial", 3, 4),    # sub-envs 1 and 2 idle while sub-env 0 runs episode 3
+    ("parallel", 2, 3),
+    ("suite", 2, 3),     # the suite's ParallelSuiteEnv
+])
+def test_a_batched_evaluation_gives_each_episode_the_return_of_that_episode_run_alone(batched, num_envs, episodes):
+    """Episode by episode, a batched evaluation's returns are those of the same episodes stepped
+    one env at a time: sub-env i, seeded as the batched env seeds it, runs episodes i, i + n, ...
+    (module docstring of dcs_torchrl.evaluation). A reward of one sub-env counted in another's
+    return, or an episode's return given to another, fails here."""
+    policy = _policy()
+    env = {"serial": SerialEnv, "parallel": functools.partial(ParallelEnv, mp_start_method="spawn"),
+           "suite": ParallelSuiteEnv}[batched](num_envs, _env)
+    result = evaluate(env, policy, episodes, seed=4)
+    env.close()
+    expected = [None] * episodes
+    for i, seed in enumerate(_sub_env_seeds(4, num_envs)):
+        runs = list(range(i, episodes, num_envs))
+        for index, ret in zip(runs, _stepped_returns(policy, seed, len(runs))):
+            expected[index] = ret
+    assert list(result.returns) == pytest.approx(expected, rel=1e-6)
+    assert len(set(result.returns)) == episodes  # every episode its own return

@@ -10,7 +10,7 @@ from dm_control.mujoco import engine
 from torchrl.envs import Compose, DMControlEnv, ExcludeTransform, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels, make_env, render
+from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, ParallelSuiteEnv, RenderPixels, make_env, render
 from dcs_test_utils import PAPER_TASKS, physics_of, solid_video
 
 
@@ -127,7 +127,7 @@ def test_distraction_over_a_pixel_env_is_refused():
         TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=True), RenderPixels())
 
 
-@pytest.mark.parametrize("batched", [SerialEnv, ParallelEnv])
+@pytest.mark.parametrize("batched", [SerialEnv, ParallelEnv, ParallelSuiteEnv])
 def test_distraction_over_a_batched_env_is_refused(batched):
     base = batched(2, functools.partial(DMControlEnv, "cartpole", "swingup", from_pixels=False))
     with pytest.raises(RuntimeError, match="build the suite inside each worker"):
@@ -168,6 +168,11 @@ SKY_CASES = {
     "blind": dict(camera=dict(scale=0.2, blind=True), background=dict(dynamic=True)),
     "still sky, turning camera": dict(camera=dict(scale=1.0), background=dict(dynamic=False)),
     "six blended faces": dict(camera=dict(scale=1.0), background=dict(dynamic=True, blend=0.5)),
+    # non-square renders (height, width): the frustum's aspect is width / height
+    "wide, medium camera": dict(camera=dict(scale=0.2), background=dict(dynamic=True), size=(48, 84)),
+    "tall, medium camera": dict(camera=dict(scale=0.2), background=dict(dynamic=True), size=(84, 48)),
+    "wide, still sky, turning camera": dict(camera=dict(scale=1.0), background=dict(dynamic=False), size=(48, 84)),
+    "tall, still sky, turning camera": dict(camera=dict(scale=1.0), background=dict(dynamic=False), size=(84, 48)),
 }
 
 
@@ -205,7 +210,7 @@ def test_sending_the_seen_sky_renders_the_pixels_of_a_whole_upload(monkeypatch, 
     transforms = lambda: Compose(  # noqa: E731
         CameraDistraction(dynamic=True, seed=3, **settings["camera"]),
         BackgroundDistraction(noise_videos(), seed=3, **settings["background"]),
-        RenderPixels(),
+        RenderPixels(*settings.get("size", (84, 84))),
     )
     whole, whole_texels = sky_pixels(monkeypatch, True, transforms)
     seen, seen_texels = sky_pixels(monkeypatch, False, transforms)

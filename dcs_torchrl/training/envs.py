@@ -2,16 +2,17 @@
 
 Each env is the whole suite env (:func:`dcs_torchrl.make_env`) and its pixel handling (DrQ's:
 HWC uint8 -> CHW uint8, ``S`` frames stacked on the channels, the first frame repeated at a
-reset). One env runs in this process (a ``SerialEnv`` of one); several run in ``ParallelEnv``
-workers, each building its env in its own process (``spawn``: EGL contexts do not survive
-``fork``), so only the stacked uint8 observation crosses the process boundary. The batched env
-gets a ``RewardSum`` (``"episode_reward"``) for logging.
+reset). One env runs in this process (a ``SerialEnv`` of one); several run in a
+:class:`~dcs_torchrl.ParallelSuiteEnv`, each worker building its env in its own process
+(``spawn``: EGL contexts do not survive ``fork``), so only the stacked uint8 observation crosses
+the process boundary, through shared memory. The batched env gets a ``RewardSum``
+(``"episode_reward"``) for logging.
 
-Threads: TorchRL's ``ParallelEnv`` lowers this process's torch threads to ``threads - workers``
-when its workers start and raises them when it closes. The recipes' update then ran on one of
-two cores (docs/agents.md, "Where the loop's time goes"). :func:`make_pixel_env` passes this
-process's thread count to the ``ParallelEnv`` and :func:`close_env` restores it after closing,
-so whatever the user chose (``OMP_NUM_THREADS``, ``torch.set_num_threads``) stays in force.
+Threads: the suite's parallel env leaves this process's torch threads as they are (TorchRL's
+``ParallelEnv``, which the recipes used before, lowers them to ``threads - workers`` while its
+workers live: the recipes' update then ran on one of two cores, docs/agents.md, "Where the
+loop's time goes"), so whatever the user chose (``OMP_NUM_THREADS``, ``torch.set_num_threads``)
+stays in force; :func:`close_env` keeps it too, whatever env it closes.
 """
 from __future__ import annotations
 
@@ -21,9 +22,10 @@ from pathlib import Path
 
 import torch
 from omegaconf import OmegaConf
-from torchrl.envs import CatFrames, Compose, EnvBase, ParallelEnv, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
+from torchrl.envs import CatFrames, Compose, EnvBase, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
 from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings, make_env, resolve_settings
+from dcs_torchrl.parallel import ParallelSuiteEnv
 
 __all__ = ["close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings"]
 
@@ -89,27 +91,22 @@ def make_pixel_env(
     """``num_workers`` suite envs, batch size ``[num_workers]``, seeded from ``seed`` (the first
     worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
 
-    One env runs in this process (``SerialEnv``): no worker to wake and no process spinning on
-    the other core while it renders. Several run in spawned ``ParallelEnv`` workers, this
-    process keeping its torch thread count (close with :func:`close_env` to keep it then too).
+    One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several
+    run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (spawned workers, this process sleeping
+    while they step).
     """
     if num_workers < 1:
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")
     make = functools.partial(pixel_env, settings, frame_stack=frame_stack, image_size=image_size, render_profile=render_profile)
-    if num_workers == 1:
-        batched = SerialEnv(1, make)
-    else:
-        batched = ParallelEnv(num_workers, make, mp_start_method="spawn", num_threads=torch.get_num_threads())
+    batched = SerialEnv(1, make) if num_workers == 1 else ParallelSuiteEnv(num_workers, make)
     env = TransformedEnv(batched, RewardSum())
     env.set_seed(seed)
     return env
 
 
 def close_env(env: EnvBase | None) -> None:
-    """Closes ``env`` (if any and not closed) and keeps this process's torch thread count.
-
-    (``ParallelEnv.close`` raises it by the number of workers, up to torch's initial pool.)
-    """
+    """Closes ``env`` (if any and not closed) and keeps this process's torch thread count
+    (TorchRL's ``ParallelEnv.close`` raises it by the number of workers, up to torch's initial pool)."""
     if env is None:
         return
     threads = torch.get_num_threads()

@@ -7,7 +7,7 @@ import torch
 from torchrl.envs import Compose, DMControlEnv, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, RenderPixels, make_env
+from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, ParallelSuiteEnv, RenderPixels, make_env
 from dcs_test_utils import distraction_streams, numbered_video, shared_streams
 
 DISTRACTIONS = {
@@ -42,7 +42,7 @@ def test_specs_single(name):
 
 
 def test_specs_serial_and_parallel(name):
-    for batched in (SerialEnv, functools.partial(ParallelEnv, mp_start_method="spawn")):
+    for batched in (SerialEnv, functools.partial(ParallelEnv, mp_start_method="spawn"), ParallelSuiteEnv):
         env = batched(2, functools.partial(build, name))
         env.set_seed(0)
         check_env_specs(env)

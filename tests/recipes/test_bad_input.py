@@ -64,13 +64,14 @@ def broken_agent(*args):
     raise RuntimeError("the agent could not be built")
 
 with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
-    cfg = compose(sys.argv[1], overrides=["pixels.image_size=48", "pixels.render_profile=fast", "progress=false"])
+    cfg = compose(sys.argv[1], overrides=["pixels.image_size=48", "pixels.render_profile=fast", "progress=false",
+                                              "collector.num_workers=2"])
 train(cfg, broken_agent, sys.argv[2])
 """
 
 
 def test_an_error_after_the_env_workers_started_ends_the_process(tmp_path):
-    # the spawned ParallelEnv workers are closed on the way out; left open, the process never exits
+    # the spawned env workers (collector.num_workers=2) are closed on the way out; left open, the process never exits
     done = subprocess.run([sys.executable, "-c", FAILING_RUN, "sac", str(tmp_path / "run")],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "the agent could not be built" in done.stderr

@@ -5,7 +5,9 @@ import pytest
 from synthetic_results import write_run
 
 from dcs_torchrl.report.interactions import interactions_markdown, interactions_missing, interactions_table
+from dcs_torchrl.report.tables import setting_name
 from dcs_torchrl.report.load import load_results
+from dcs_torchrl.report.paper import paper_interactions
 
 TASKS = [("cartpole", "swingup"), ("cheetah", "run")]
 # Scores per task (the same for seeds 0 and 1): mean over tasks 800 without distraction.
@@ -99,3 +101,46 @@ def test_a_row_over_fewer_tasks_says_so(results_dir):
     assert r["missing"] == "benchmark easy: no runs for cartpole swingup"
     assert "| static | easy | QT-Opt+RAD (1 tasks) | 0.50 | 0.50 | 0.50 | 0.12 | < | 0.17 |" in (
         interactions_markdown(table).splitlines())
+
+
+# The paper's interactions table (Stone et al. 2021, Sec. 5.3, "Interactions of distracting effects"),
+# whole, as printed: (dynamic, difficulty, method) -> camera, color, background, product, comparison, benchmark.
+PAPER_INTERACTIONS = {
+    (False, "easy", "SAC+RAD"): (0.79, 0.74, 0.41, 0.24, ">", 0.22),
+    (False, "easy", "SAC+DrQ"): (0.81, 1.01, 0.41, 0.33, ">", 0.21),
+    (False, "easy", "QT-Opt+RAD"): (0.88, 0.92, 0.60, 0.48, ">", 0.39),
+    (False, "easy", "QT-Opt+DrQ"): (0.91, 0.95, 0.59, 0.51, ">", 0.37),
+    (False, "medium", "SAC+RAD"): (0.58, 0.64, 0.46, 0.17, ">", 0.14),
+    (False, "medium", "SAC+DrQ"): (0.55, 0.76, 0.42, 0.18, ">", 0.16),
+    (False, "medium", "QT-Opt+RAD"): (0.57, 0.92, 0.54, 0.28, ">", 0.20),
+    (False, "medium", "QT-Opt+DrQ"): (0.61, 0.84, 0.54, 0.28, ">", 0.21),
+    (True, "easy", "SAC+RAD"): (0.72, 0.80, 0.75, 0.43, ">", 0.32),
+    (True, "easy", "SAC+DrQ"): (0.72, 1.02, 0.63, 0.46, ">", 0.25),
+    (True, "easy", "QT-Opt+RAD"): (0.80, 0.97, 0.87, 0.68, ">", 0.42),
+    (True, "easy", "QT-Opt+DrQ"): (0.84, 0.93, 0.83, 0.65, ">", 0.33),
+    (True, "medium", "SAC+RAD"): (0.45, 0.71, 0.81, 0.26, ">", 0.11),
+    (True, "medium", "SAC+DrQ"): (0.49, 0.69, 0.76, 0.26, ">", 0.11),
+    (True, "medium", "QT-Opt+RAD"): (0.52, 0.91, 0.83, 0.39, ">", 0.13),
+    (True, "medium", "QT-Opt+DrQ"): (0.54, 0.90, 0.79, 0.38, ">", 0.13),
+}
+PAPER_COLUMNS = ("camera", "color", "background", "product", "comparison", "benchmark")
+
+
+def test_the_papers_interactions_table_is_loaded_cell_by_cell():
+    """Every cell of the paper's table as the package's data holds it: a value in another column,
+    row or setting fails here."""
+    loaded = paper_interactions()
+    assert len(loaded) == len(PAPER_INTERACTIONS)
+    got = {(bool(r.dynamic), r.difficulty, r.method): tuple(getattr(r, c) for c in PAPER_COLUMNS)
+           for r in loaded.itertuples()}
+    assert got == PAPER_INTERACTIONS
+
+
+def test_the_reports_table_shows_every_paper_cell_in_its_column(table):
+    shown = {key: tuple(table.loc[key, f"paper_{c}"] for c in PAPER_COLUMNS) for key in PAPER_INTERACTIONS}
+    assert shown == PAPER_INTERACTIONS
+    paper_section = interactions_markdown(table.reset_index()).split("## Paper")[1]
+    rows = {tuple(cell.strip() for cell in line.strip("|").split("|")) for line in paper_section.splitlines()
+            if line.startswith("|") and "Method" not in line and set(line) - set("|:- ")}
+    assert rows == {(setting_name(dynamic), difficulty, method, *(v if isinstance(v, str) else f"{v:.2f}" for v in cells))
+                    for (dynamic, difficulty, method), cells in PAPER_INTERACTIONS.items()}

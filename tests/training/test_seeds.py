@@ -2,7 +2,7 @@
 
 The batched envs are built by the recipes' own code (:func:`make_pixel_env`, :class:`Workspace`)
 with their workers in this process, so that each worker's env can be looked at: ``SerialEnv``
-seeds its workers as ``ParallelEnv`` does (each the seed the previous one's ``set_seed`` returns).
+seeds its workers as ``ParallelSuiteEnv`` and ``ParallelEnv`` do (each the seed the previous one's ``set_seed`` returns).
 """
 import pytest
 from hydra import compose, initialize_config_module
@@ -20,7 +20,7 @@ from dcs_test_utils import distraction_streams, shared_streams
 
 @pytest.fixture
 def workers_in_process(monkeypatch):
-    monkeypatch.setattr(training_envs, "ParallelEnv", lambda num_workers, make, **_: SerialEnv(num_workers, make))
+    monkeypatch.setattr(training_envs, "ParallelSuiteEnv", lambda num_workers, make, **_: SerialEnv(num_workers, make))
 
 
 @pytest.fixture

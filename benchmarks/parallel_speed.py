@@ -1,0 +1,172 @@
+"""Agent steps per second of one suite env against n workers, through each parallel path, side by side.
+
+    python benchmarks/parallel_speed.py [--workers 2] [--steps 200] [--rounds 5] [--benchmarks none medium]
+
+Paths (cartpole swingup by default, default render profile, seeded random actions):
+
+- ``one env``: one ``make_env`` env stepped in this process (the baseline, 1x);
+- ``ParallelEnv``: TorchRL's ``ParallelEnv(n, partial(make_env, ...))`` as it comes (shared-memory
+  buffers; this process spin-polls its workers' done flags while they step);
+- ``ParallelEnv, pipes``: the same with ``use_buffers=False`` (results come back through the
+  pipes, and this process sleeps in ``select`` until they do);
+- ``ParallelSuiteEnv``: the suite's parallel env (:class:`dcs_torchrl.ParallelSuiteEnv`);
+- ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling.
+
+Every path is built once, then stepped in interleaved rounds (each round in the other order to
+the last), and the median round is reported with the main process's CPU use (``process_time``
+over wall time: a process that waits by spinning shows it). Ratios are taken round by round
+(each path against the one env of the same round), their median and range printed.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import multiprocessing as mp
+import os
+import statistics
+import subprocess
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import torch  # noqa: E402
+from torchrl.envs import ParallelEnv  # noqa: E402
+
+import dcs_torchrl as dcs  # noqa: E402
+
+
+def cpu_model() -> str:
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown CPU"
+    return next((line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")), "unknown CPU")
+
+
+def time_env(env, td, steps: int, generator: torch.Generator):
+    """Seconds (wall, this process's CPU) for ``steps`` batched steps of random actions."""
+    spec = env.action_spec
+    actions = torch.rand((steps, *spec.shape), generator=generator) * (spec.high - spec.low) + spec.low
+    wall, cpu = time.perf_counter(), time.process_time()
+    for action in actions:
+        _, td = env.step_and_maybe_reset(td.set("action", action))
+    return time.perf_counter() - wall, time.process_time() - cpu, td
+
+
+def _process_worker(factory, pipe) -> None:
+    env = factory()
+    env.set_seed(int(pipe.recv()))
+    td, generator = env.reset(), torch.Generator().manual_seed(0)
+    while (steps := pipe.recv()) is not None:
+        pipe.send(time_env(env, td, steps, generator))
+        td = env.reset()
+    env.close()
+
+
+class Processes:
+    """n processes, each stepping its own env; a round's rate is n * steps / the slowest's time."""
+
+    def __init__(self, factory, n: int, seed: int):
+        ctx = mp.get_context("spawn")
+        self.pipes, self.procs = [], []
+        for i in range(n):
+            here, there = ctx.Pipe()
+            proc = ctx.Process(target=_process_worker, args=(factory, there), daemon=True)
+            proc.start()
+            here.send(seed + i)
+            self.pipes.append(here)
+            self.procs.append(proc)
+        self.batch = n
+
+    def run(self, steps: int):
+        for pipe in self.pipes:
+            pipe.send(steps)
+        results = [pipe.recv()[:2] for pipe in self.pipes]
+        return max(wall for wall, _ in results), 0.0
+
+    def close(self):
+        for pipe in self.pipes:
+            pipe.send(None)
+        for proc in self.procs:
+            proc.join(timeout=30)
+
+
+class Stepped:
+    """A TorchRL env (single or batched) stepped in this process."""
+
+    def __init__(self, env, seed: int):
+        self.env = env
+        env.set_seed(seed)
+        self.td = env.reset()
+        self.generator = torch.Generator().manual_seed(seed)
+        self.batch = max(1, env.batch_size.numel())
+
+    def run(self, steps: int):
+        wall, cpu, self.td = time_env(self.env, self.td, steps, self.generator)
+        return wall, cpu
+
+    def close(self):
+        self.env.close()
+
+
+def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
+    suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(dcs.ParallelSuiteEnv, render_threads=k)
+             for k in render_threads}
+    return {
+        "one env": lambda: Stepped(factory(), seed),
+        "ParallelEnv": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn"), seed),
+        "ParallelEnv, pipes": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn", use_buffers=False), seed),
+        "ParallelSuiteEnv": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory), seed),
+        **{name: functools.partial(lambda make: Stepped(make(n, factory), seed), make) for name, make in suite.items()},
+        f"{n} processes": lambda: Processes(factory, n, seed),
+    }
+
+
+def interleaved(runners: dict, steps: int, rounds: int) -> dict:
+    """Per path, (agent steps/s, main CPU share) of each round; every other round in reverse order."""
+    for runner in runners.values():
+        runner.run(max(10, steps // 10))  # warm-up: contexts, videos, code paths
+    out = {name: [] for name in runners}
+    for round_ in range(rounds):
+        for name in (list(runners) if round_ % 2 == 0 else list(runners)[::-1]):
+            wall, cpu = runners[name].run(steps)
+            out[name].append((runners[name].batch * steps / wall, cpu / wall))
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--steps", type=int, default=200, help="batched steps per path per round")
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--task", default="cartpole:swingup")
+    parser.add_argument("--benchmarks", nargs="+", default=["none", "medium"], help="each dynamic")
+    parser.add_argument("--render-threads", type=int, nargs="*", default=[],
+                        help="also ParallelSuiteEnv with these render_threads (Mesa llvmpipe threads per worker)")
+    parser.add_argument("--only", nargs="+", help="path names to run (default: all)")
+    args = parser.parse_args()
+    domain, task = args.task.split(":")
+    print(f"{cpu_model()}, {os.cpu_count()} cores; {domain} {task}, {args.workers} workers, "
+          f"median of {args.rounds} rounds x {args.steps} batched steps")
+    for benchmark in args.benchmarks:
+        factory = functools.partial(dcs.make_env, domain, task, benchmark=benchmark, dynamic=True)
+        made = paths(factory, args.workers, seed=0, render_threads=args.render_threads)
+        runners = {name: make() for name, make in made.items() if not args.only or name in args.only}
+        try:
+            rates = interleaved(runners, args.steps, args.rounds)
+        finally:
+            for runner in runners.values():
+                runner.close()
+        base = rates.get("one env")
+        print(f"\n{benchmark} dynamic\n| path | agent steps/s | vs one env, median (range) of the rounds' ratios "
+              "| main process CPU |\n|---|---:|---:|---:|")
+        for name, values in rates.items():
+            rate = statistics.median(r for r, _ in values)
+            cpu = statistics.median(c for _, c in values)
+            ratios = [r / b for (r, _), (b, _) in zip(values, base)] if base else []
+            ratio = f"{statistics.median(ratios):.2f} ({min(ratios):.2f}–{max(ratios):.2f})" if ratios else "-"
+            print(f"| {name} | {rate:.0f} | {ratio} | {'-' if name.endswith('processes') else f'{100 * cpu:.0f}%'} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""ParallelSuiteEnv: each worker's episodes are those of one env with its seed; specs, resets, errors."""
+import functools
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import torch
+from torchrl.collectors import Collector
+from torchrl.envs.utils import check_env_specs
+
+import dcs_torchrl as dcs
+from dcs_torchrl import ParallelSuiteEnv, make_env
+
+EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
+SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True)
+FACTORY = functools.partial(make_env, "cartpole", "swingup", **SETTINGS)
+
+
+def _seeds(seed: int, n: int) -> list[int]:
+    """Each worker's seed under TorchRL's chain: the next is what the previous one's set_seed returns."""
+    seeds = [seed]
+    for _ in range(n - 1):
+        seeds.append(FACTORY().set_seed(seeds[-1]))
+    return seeds
+
+
+def _actions(steps: int, n: int) -> torch.Tensor:
+    return torch.rand(steps, n, 1, generator=torch.Generator().manual_seed(0)) * 2 - 1
+
+
+def _one_env_run(seed: int, actions: torch.Tensor) -> list:
+    """(pixels, reward, done, distraction state) after each action, one env, reset at each episode's end."""
+    env = FACTORY()
+    env.set_seed(seed)
+    td, out = env.reset(), []
+    for action in actions:
+        td = env.step(td.set("action", action))["next"]
+        out.append(td.select("pixels", "reward", "done", "distractions").clone())
+        if td["done"].item():
+            td = env.reset()
+    env.close()
+    return out
+
+
+def test_each_worker_runs_the_episodes_of_one_env_with_its_seed():
+    n, steps = 2, 2 * EPISODE + 3  # across an episode end and a reset
+    env = ParallelSuiteEnv(n, FACTORY)
+    env.set_seed(7)
+    actions = _actions(steps, n)
+    td, batched = env.reset(), []
+    for action in actions:
+        td.set("action", action)
+        out, td = env.step_and_maybe_reset(td)
+        batched.append(out["next"].select("pixels", "reward", "done", "distractions"))
+    env.close()
+    for worker, seed in enumerate(_seeds(7, n)):
+        alone = _one_env_run(seed, actions[:, worker])
+        for k, (got, want) in enumerate(zip(batched, alone)):
+            assert (got[worker] == want).all(), f"worker {worker}, step {k}"
+    assert not torch.equal(batched[0]["pixels"][0], batched[0]["pixels"][1])  # workers differ
+
+
+def test_specs_partial_reset_and_a_collector():
+    env = ParallelSuiteEnv(2, FACTORY)
+    check_env_specs(env, seed=0)
+    assert env.batch_size == (2,) and env.observation_spec["pixels"].shape == (2, 32, 32, 3)
+    env.set_seed(0)
+    td = env.reset()
+    first = td["pixels"].clone()
+    td = env.step(td.set("action", _actions(1, 2)[0]))["next"]
+    stepped = td["pixels"].clone()
+    td["_reset"] = torch.tensor([[True], [False]])
+    td = env.reset(td)
+    assert not torch.equal(td["pixels"][0], stepped[0]) and torch.equal(td["pixels"][1], stepped[1])
+    assert not torch.equal(td["pixels"][0], first[0])  # a new episode: a new scene
+    collector = Collector(env, None, frames_per_batch=4, total_frames=8)
+    batches = [b for b in collector]
+    assert [tuple(b.batch_size) for b in batches] == [(2, 2), (2, 2)]
+    collector.shutdown()
+    env.close(raise_if_closed=False)
+
+
+def test_this_processes_threads_are_left_alone():
+    threads = torch.get_num_threads()
+    env = ParallelSuiteEnv(2, FACTORY)
+    assert torch.get_num_threads() == threads
+    env.close()
+    assert torch.get_num_threads() == threads
+
+
+def _broken_env():
+    raise ValueError("this env cannot be built")
+
+
+def test_bad_input_and_failing_workers_name_the_fix():
+    with pytest.raises(ValueError, match="num_workers must be an int >= 1"):
+        ParallelSuiteEnv(0, FACTORY)
+    with pytest.raises(TypeError, match="create_env_fn must be callable"):
+        ParallelSuiteEnv(2, "cartpole")
+    with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*this env cannot be built"):
+        ParallelSuiteEnv(1, _broken_env)
+    env = ParallelSuiteEnv(1, FACTORY)
+    with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*step before reset"):
+        env.step(env.full_action_spec.zero().set("action", torch.zeros(1, 1)))
+    env = ParallelSuiteEnv(1, FACTORY)
+    env.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        env.reset()
+    with pytest.raises(RuntimeError, match="closed already"):
+        env.close()
+
+
+def test_workers_end_when_the_process_that_made_them_is_killed(tmp_path):
+    script = (
+        "import functools, os, sys, dcs_torchrl as dcs\n"
+        "env = dcs.ParallelSuiteEnv(2, functools.partial(dcs.make_env, 'cartpole', 'swingup'))\n"
+        "print(' '.join(str(p.pid) for p in env._procs), flush=True)\n"
+        "sys.stdin.read()\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    pids = [int(p) for p in proc.stdout.readline().split()]
+    assert len(pids) == 2
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.time() + 30
+    while time.time() < deadline and any(_alive(pid) for pid in pids):
+        time.sleep(0.2)
+    assert not any(_alive(pid) for pid in pids)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_the_package_exports_it():
+    assert dcs.ParallelSuiteEnv is ParallelSuiteEnv

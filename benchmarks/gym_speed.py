@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import subprocess
 import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -32,18 +31,12 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
+from machine import cpu_model  # noqa: E402
 from dcs_torchrl.gym_env import DistractingControlEnv, env_id  # noqa: E402
 
 BASE = "make_env, TorchRL step loop"
 
 
-def cpu_model() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown CPU (no lscpu)"
-    names = [line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")]
-    return names[0] if names else "unknown CPU"
 
 
 class TorchRLLoop:

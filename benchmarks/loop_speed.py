@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -33,17 +32,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from dcs_torchrl.methods import method_name  # noqa: E402  (pure data: no torch import)
+from machine import cpu_model  # noqa: E402
 
 LOOP_ROWS = ("collect", "extend", "sample", "update")
 REPEAT = 8  # cartpole swingup's action repeat
 
 
-def cpu_model() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        return next(line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name"))
-    except (OSError, subprocess.CalledProcessError, StopIteration):
-        return platform.processor() or "unknown CPU"
 
 
 def recipe_overrides(method: str, batch: int, seed_steps: int, steps: int) -> list[str]:

@@ -24,7 +24,6 @@ import functools
 import multiprocessing as mp
 import os
 import statistics
-import subprocess
 import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -33,14 +32,9 @@ import torch  # noqa: E402
 from torchrl.envs import ParallelEnv  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
+from machine import cpu_model  # noqa: E402
 
 
-def cpu_model() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown CPU"
-    return next((line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")), "unknown CPU")
 
 
 def time_env(env, td, steps: int, generator: torch.Generator):

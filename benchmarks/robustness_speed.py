@@ -21,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine import cpu_model
+
 AGENT = "sac_rad_cartpole_swingup"
 ELEVEN = [f"{0.1 * i:.1f}" for i in range(11)]
 SWEEPS = {
@@ -29,13 +31,6 @@ SWEEPS = {
 }
 
 
-def cpu_model() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown CPU"
-    names = [line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")]
-    return names[0] if names else "unknown CPU"
 
 
 def main() -> None:

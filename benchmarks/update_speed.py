@@ -123,20 +123,20 @@ def ref_augment(obs, pad=4):
     n, _, h, w = obs.shape
     padded = F.pad(obs, (pad, pad, pad, pad), mode="replicate")
     eps = 1.0 / (h + 2 * pad)
-    arange = torch.linspace(-1.0 + eps, 1.0 - eps, h + 2 * pad)[:h]
+    arange = torch.linspace(-1.0 + eps, 1.0 - eps, h + 2 * pad, device=obs.device)[:h]
     base = torch.stack(torch.meshgrid(arange, arange, indexing="xy"), dim=-1).unsqueeze(0).expand(n, h, w, 2)
-    shift = torch.randint(0, 2 * pad + 1, (n, 1, 1, 2)).float() * (2.0 / (h + 2 * pad))
+    shift = torch.randint(0, 2 * pad + 1, (n, 1, 1, 2), device=obs.device).float() * (2.0 / (h + 2 * pad))
     return F.grid_sample(padded, base + shift, padding_mode="zeros", align_corners=False)
 
 
 class ReferenceSAC:
-    def __init__(self, channels, hidden):
-        self.actor = RefActor(channels, hidden)
-        self.critic = RefCritic(channels, hidden)
+    def __init__(self, channels, hidden, device="cpu"):
+        self.actor = RefActor(channels, hidden).to(device)
+        self.critic = RefCritic(channels, hidden).to(device)
         self.critic_target = copy.deepcopy(self.critic)
         for a, c in zip(self.actor.encoder.convs, self.critic.encoder.convs):  # tie the convolutions
             a.weight, a.bias = c.weight, c.bias
-        self.log_alpha = torch.tensor(math.log(0.1), requires_grad=True)
+        self.log_alpha = torch.tensor(math.log(0.1), requires_grad=True, device=device)
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=LR)
@@ -186,17 +186,17 @@ class ReferenceSAC:
 class ReferenceQTOpt:
     """QT-Opt+DrQ with the reference's habits: a pass per copy, /255, out-of-place ReLU, CEM per copy."""
 
-    def __init__(self, channels, hidden):
-        self.critic = RefCritic(channels, hidden)
+    def __init__(self, channels, hidden, device="cpu"):
+        self.critic = RefCritic(channels, hidden).to(device)
         self.critic_target = copy.deepcopy(self.critic)
         self.opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
         self.step = 0
 
     def _cem(self, emb, q):
         n = emb.shape[0]
-        mean, std = torch.zeros(n, ACTION_DIM), torch.ones(n, ACTION_DIM)
+        mean, std = torch.zeros(n, ACTION_DIM, device=emb.device), torch.ones(n, ACTION_DIM, device=emb.device)
         for _ in range(2):
-            a = (mean.unsqueeze(1) + std.unsqueeze(1) * torch.randn(n, 64, ACTION_DIM)).clamp(-1, 1)
+            a = (mean.unsqueeze(1) + std.unsqueeze(1) * torch.randn(n, 64, ACTION_DIM, device=emb.device)).clamp(-1, 1)
             v = q(torch.cat([emb.unsqueeze(1).expand(n, 64, 50), a], -1)).squeeze(-1)
             idx = v.topk(6, dim=1).indices
             elites = a.gather(1, idx.unsqueeze(-1).expand(n, 6, ACTION_DIM))

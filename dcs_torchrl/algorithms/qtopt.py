@@ -19,6 +19,7 @@ from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.objectives import CEMActor, QTOptLoss
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
 from dcs_torchrl.training.envs import env_options
+from dcs_torchrl.training.execution import ExecutionOptions
 
 __all__ = ["QTOptAgent"]
 
@@ -42,14 +43,20 @@ class QTOptAgent(LossAgent):
             loss.qvalue_network, loss.qvalue_network_params, action_spec=action_spec, iterations=algo.cem_iterations,
             num_samples=algo.cem_samples, num_elites=algo.cem_elites, noise_std=algo.noise_std, epsilon=algo.epsilon,
         )
-        super().__init__(loss, TensorDictSequential(encoder, actor), tau=algo.critic_tau, device=cfg.device)
+        super().__init__(loss, TensorDictSequential(encoder, actor), tau=algo.critic_tau, device=cfg.device,
+                         options=ExecutionOptions.from_config(cfg))
         self.add_optimiser("critic", self.critic_params(self.loss), cfg.optim.lr)
         self.target_every = algo.critic_target_update_frequency
 
-    def update(self, batch, index: int) -> dict:
-        out = self.loss(batch.to(self.device))  # augments, encodes once, CEM on the target heads
-        self.step(out["loss_qvalue"], ["critic"], update_targets=index % self.target_every == 0)
-        return {
+    def schedule(self, index: int) -> tuple[bool]:
+        """``(update_targets,)`` at update ``index``."""
+        return (index % self.target_every == 0,)
+
+    def update_step(self, batch, update_targets: bool) -> dict:
+        out = self.loss(batch)  # augments, encodes once, CEM on the target heads
+        self.step(out["loss_qvalue"], ["critic"], update_targets=update_targets)
+        metrics = {
             "loss/critic": out["loss_qvalue"], "train/q_value": out["q_value"],
             "train/target_value": out["target_value"], "train/next_state_value": out["next_state_value"],
         }
+        return {name: value.detach() for name, value in metrics.items()}

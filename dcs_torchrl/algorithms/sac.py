@@ -16,6 +16,7 @@ from tensordict.nn import TensorDictSequential
 from dcs_torchrl.modules import make_sac_actor
 from dcs_torchrl.objectives import DrQSACLoss
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
+from dcs_torchrl.training.execution import ExecutionOptions
 
 __all__ = ["SACAgent"]
 
@@ -32,19 +33,23 @@ class SACAgent(LossAgent):
             alpha_init=algo.init_temperature,
         )
         loss.make_value_estimator(gamma=algo.discount)
-        super().__init__(loss, TensorDictSequential(encoder, actor), tau=algo.critic_tau, device=cfg.device)
+        super().__init__(loss, TensorDictSequential(encoder, actor), tau=algo.critic_tau, device=cfg.device,
+                         options=ExecutionOptions.from_config(cfg))
         self.add_optimiser("critic", self.critic_params(self.loss), cfg.optim.lr)
         self.add_optimiser("actor", self.loss.actor_network_params.values(True, True), cfg.optim.lr)
         self.add_optimiser("alpha", [self.loss.log_alpha], cfg.optim.lr)
         self.actor_every, self.target_every = algo.actor_update_frequency, algo.critic_target_update_frequency
 
-    def update(self, batch, index: int) -> dict:
-        out = self.loss(batch.to(self.device))  # augments, encodes once, computes all three losses
-        update_actor = index % self.actor_every == 0
+    def schedule(self, index: int) -> tuple[bool, bool]:
+        """``(update_actor, update_targets)`` at update ``index``."""
+        return index % self.actor_every == 0, index % self.target_every == 0
+
+    def update_step(self, batch, update_actor: bool, update_targets: bool) -> dict:
+        out = self.loss(batch)  # augments, encodes once, computes all three losses
         total = out["loss_qvalue"] + (out["loss_actor"] + out["loss_alpha"] if update_actor else 0.0)
-        self.step(total, ["critic", "actor", "alpha"] if update_actor else ["critic"],
-                  update_targets=index % self.target_every == 0)
-        return {
+        self.step(total, ["critic", "actor", "alpha"] if update_actor else ["critic"], update_targets=update_targets)
+        metrics = {
             "loss/critic": out["loss_qvalue"], "loss/actor": out["loss_actor"], "loss/alpha": out["loss_alpha"],
             "train/alpha": out["alpha"], "train/entropy": out["entropy"], "train/target_value": out["target_value"],
         }
+        return {name: value.detach() for name, value in metrics.items()}

@@ -255,6 +255,7 @@ class QTOptLoss(DrQEncoding, LossModule):
     def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
         value_type, hp = value_estimator_kwargs(self, value_type, **hyperparams)
         if value_type is None:
+            self._gamma = float(self.value_estimator.gamma)
             return self
         dispatch_value_estimator(
             self,
@@ -269,10 +270,12 @@ class QTOptLoss(DrQEncoding, LossModule):
             value_network=None,
             **hp,
         )
+        self._gamma = float(self.value_estimator.gamma)  # read once here, never in an update (a host sync on CUDA)
 
     def value_bounds(self) -> tuple[float, float]:
-        """``(v_min, v_max) = reward_range / (1 - gamma)``: the cross-entropy normalisation."""
-        gamma = float(self.value_estimator.gamma)
+        """``(v_min, v_max) = reward_range / (1 - gamma)``: the cross-entropy normalisation, with
+        the ``gamma`` of the last :meth:`make_value_estimator` (kept as a Python float)."""
+        gamma = self._gamma
         if not 0.0 <= gamma < 1.0:
             raise ValueError(f"the cross-entropy normalisation needs 0 <= gamma < 1, got {gamma}.")
         r_min, r_max = self.reward_range

@@ -13,7 +13,6 @@ import logging
 import random
 import sys
 import time
-from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
@@ -34,8 +33,9 @@ from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
 from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options, recipe_settings
+from dcs_torchrl.training.execution import ExecutionOptions, apply_math_settings, check_execution, on_device, replay_device
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
-from dcs_torchrl.training.metrics import MetricsLogger, read_metrics
+from dcs_torchrl.training.metrics import MetricsLogger, RunningMeans, read_metrics
 from dcs_torchrl.training.replay import FrameStackReplayBuffer
 from dcs_torchrl.training.rundir import RunDirectory
 from dcs_torchrl.training.timing import PhaseTimer
@@ -52,7 +52,8 @@ class Agent(Protocol):
     policy: TensorDictModuleBase  # pixels -> action; explores under ExplorationType.RANDOM
 
     def update(self, batch: TensorDictBase, index: int) -> dict[str, torch.Tensor]:
-        """One gradient update on a replay sample (``index`` counts updates from 0)."""
+        """One gradient update on a replay sample (``index`` counts updates from 0); its metrics as
+        0-d tensors, left where they are (the loop reads them once per logging row)."""
 
     def state_dict(self) -> dict: ...
 
@@ -99,17 +100,14 @@ def _check_config(cfg: DictConfig) -> None:
         )
     if cfg.device != "cpu" and not torch.cuda.is_available():
         raise ValueError(f"device={cfg.device!r} but CUDA is not available: use device=cpu.")
+    check_execution(cfg)
 
 
 def acting_on(policy, device: str):
-    """The policy for CPU envs: on another device, observations go there and actions come back."""
-    if torch.device(device).type == "cpu":
-        return policy
-
-    def act(tensordict: TensorDictBase) -> TensorDictBase:
-        return tensordict.update(policy(tensordict.to(device)).select("action").to("cpu"))
-
-    return act
+    """The policy for CPU envs: itself on the CPU; on another device a
+    :class:`~dcs_torchrl.training.execution.DevicePolicy` (its inputs there and the action back,
+    one copy each way per step)."""
+    return on_device(policy, device)
 
 
 def _record_episode(env, policy, path: Path, max_steps: int) -> None:
@@ -154,6 +152,8 @@ class Workspace:
         self.train_settings, self.eval_settings = recipe_settings(cfg)
         self.repeat = self.train_settings.action_repeat
         self.total_steps = -(-cfg.total_frames // self.repeat)  # agent steps, rounded up
+        self.options = ExecutionOptions.from_config(cfg)
+        apply_math_settings(self.options)  # TF32 on or off, cuDNN's search: CUDA only
         torch.manual_seed(cfg.seed)
         np.random.seed(cfg.seed % 2**32)
         random.seed(cfg.seed)
@@ -167,14 +167,18 @@ class Workspace:
             observation_shape = tuple(self.env.observation_spec["pixels"].shape[-3:])
             action_spec = self.env.action_spec[0] if self.env.batch_size else self.env.action_spec
             self.agent = build_agent(cfg, observation_shape, action_spec)
+            layout = (cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape))
+            min_episode_steps = max(1, 1000 // self.repeat)
+            self.replay_device = replay_device(cfg, FrameStackReplayBuffer.storage_bytes(*layout, min_episode_steps))
             self.buffer = FrameStackReplayBuffer(
-                cfg.replay_buffer.size, cfg.pixels.frame_stack, (3, *observation_shape[1:]), tuple(action_spec.shape),
-                batch_size=cfg.algo.batch_size, min_episode_steps=max(1, 1000 // self.repeat),
+                *layout, batch_size=cfg.algo.batch_size, min_episode_steps=min_episode_steps,
+                device=None if self.replay_device.type == "cpu" else self.replay_device,
             )
         except BaseException:
             self.close()
             raise
-        self.eval_policy = acting_on(self.agent.policy, cfg.device)
+        self.policy = on_device(self.agent.policy, cfg.device)  # the collector's and the evaluations' (one copy each way)
+        self.eval_policy = self.policy
         self.counters = {"steps": 0, "updates": 0, "episodes": 0, "wall_time": 0.0, "metrics_rows": 0,
                          "next_eval": cfg.eval.interval, "next_checkpoint": cfg.checkpoint.interval}
         self.timer = PhaseTimer()  # time/<phase>_ms rows: where each agent step's wall time goes
@@ -233,13 +237,12 @@ class Workspace:
         the random seed steps); logging, periodic evaluation and checkpoints on their cadence."""
         cfg, counters = self.cfg, self.counters
         start = counters["steps"]
-        collector = Collector(
-            self.env, self.agent.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
+        collector = Collector(  # envs, policy (a DevicePolicy on CUDA) and data on the host, as the collector sees them
+            self.env, self.policy, frames_per_batch=cfg.collector.num_workers * cfg.collector.steps_per_batch,
             total_frames=max(self.total_steps - start, 1), init_random_frames=max(cfg.collector.seed_steps - start, 0),
             auto_register_policy_transforms=False,
-            **({} if cfg.device == "cpu" else {"policy_device": cfg.device, "env_device": "cpu", "storing_device": "cpu"}),
         )
-        self.losses: dict[str, list[float]] = defaultdict(list)
+        self.losses = RunningMeans()  # on the update's device until a logging row
         self.last_log, self.tick = start, time.time()
         bar = tqdm(total=self.total_steps * self.repeat, initial=start * self.repeat, unit="frame",
                    disable=not cfg.progress, dynamic_ncols=True, mininterval=1.0 if sys.stderr.isatty() else 30.0)
@@ -284,8 +287,7 @@ class Workspace:
             with self.timer("sample"):
                 batch = self.buffer.sample()
             with self.timer("update"):
-                for name, value in self.agent.update(batch, self.counters["updates"]).items():
-                    self.losses[name].append(float(torch.as_tensor(value).detach()))
+                self.losses.add(self.agent.update(batch, self.counters["updates"]))
             self.counters["updates"] += 1
 
     def _log_progress(self) -> None:
@@ -295,13 +297,12 @@ class Workspace:
             return
         elapsed = max(time.time() - self.tick, 1e-9)
         self.logger.log(self.frames, {
-            **{name: sum(v) / len(v) for name, v in self.losses.items()},
+            **self.losses.means(),  # the one host read of the update's metrics per row
             **self.timer.report(steps - self.last_log),
             "time/fps": (steps - self.last_log) * self.repeat / elapsed,
             "time/elapsed": time.time() - self.start_time, "train/updates": self.counters["updates"],
             "train/buffer_gb": self.buffer.nbytes() / 1e9,
         })
-        self.losses.clear()
         self.last_log, self.tick = steps, time.time()
 
     def _evaluate_periodically(self) -> None:
@@ -325,7 +326,8 @@ class Workspace:
         plot_learning_curve(read_metrics(self.logger.path), self.run.path / "learning_curve.png",
                             title=f"{self.method} {cfg.env.domain} {cfg.env.task} ({_scene_label(self.train_settings)}, seed {cfg.seed})")
         return RunResults.from_config(
-            self.run.config, experiment=cfg.experiment, steps=frames, wall_time=time.time() - self.start_time,
+            self.options.recorded(self.run.config, self.replay_device),  # the values that ran for each `auto`
+            experiment=cfg.experiment, steps=frames, wall_time=time.time() - self.start_time,
             train_env=self.train_settings.as_dict(), eval_env=self.eval_settings.as_dict(),
             sweep=self.run.config.get("sweep"), eval=result.to_dict(),
         ).as_dict()

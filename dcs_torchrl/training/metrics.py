@@ -8,16 +8,20 @@ row once. TensorBoard drops its events after the checkpoint's frames (``purge_st
 ``TensorboardLogger`` cannot, so this one is torch's ``SummaryWriter``). W&B goes through
 TorchRL's ``WandbLogger``: every metric is plotted against the frames (its group's ``step``), and
 a resumed run continues the same W&B run (its id is kept in the checkpoints), where the repeated
-stretch shows twice.
+stretch shows twice. :class:`RunningMeans` keeps the update's metrics on their device between
+logging rows.
 """
 from __future__ import annotations
 
 import csv
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["BACKENDS", "MetricsLogger", "read_metrics"]
+import torch
+
+__all__ = ["BACKENDS", "MetricsLogger", "RunningMeans", "read_metrics"]
 
 BACKENDS = ("csv", "tensorboard", "wandb")
 _HEADER = ["frames", "name", "value", "wall_time"]
@@ -131,3 +135,52 @@ class MetricsLogger:
             self._tb.close()
         if self._wandb is not None:
             self._wandb.close()
+
+
+class RunningMeans:
+    """Means of named 0-d tensors (an update's metrics), summed where they are: no host read until
+    :meth:`means`, once per logging row.
+
+    Each name's sum is one float64 tensor on its metric's device, added to in place (no memory
+    grows with the updates); float64 sums in order give the same means as summing the values
+    read as Python floats.
+
+    Examples:
+        >>> means = RunningMeans()
+        >>> means.add({"loss/critic": torch.tensor(1.0)})
+        >>> means.add({"loss/critic": torch.tensor(2.0)})
+        >>> means.means()
+        {'loss/critic': 1.5}
+        >>> means.means()
+        {}
+    """
+
+    def __init__(self) -> None:
+        self.sums: dict[str, torch.Tensor] = {}
+        self.counts: dict[str, int] = {}
+
+    def add(self, values: Mapping[str, torch.Tensor]) -> None:
+        """Adds one value per name (0-d tensors, or numbers)."""
+        for name, value in values.items():
+            value = torch.as_tensor(value).detach()
+            total = self.sums.get(name)
+            if total is None:
+                self.sums[name] = value.to(torch.float64, copy=True)
+                self.counts[name] = 1
+            else:
+                total.add_(value)
+                self.counts[name] += 1
+
+    def means(self) -> dict[str, float]:
+        """``{name: mean}`` since the last call (one transfer per device), then starts again."""
+        names = list(self.sums)
+        by_device: dict[torch.device, list[str]] = {}
+        for name in names:
+            by_device.setdefault(self.sums[name].device, []).append(name)
+        means = {}
+        for group in by_device.values():
+            for name, total in zip(group, torch.stack([self.sums[n] for n in group]).tolist()):
+                means[name] = total / self.counts[name]
+        self.sums.clear()
+        self.counts.clear()
+        return {name: means[name] for name in names}

@@ -37,7 +37,11 @@ class FrameStackReplayBuffer:
         batch_size (int): transitions per :meth:`sample`; at most ``capacity``.
         pixels_key (NestedKey): the stacked pixels entry (and ``("next", pixels_key)``).
         min_episode_steps (int): sizes the frame ring (see the module docstring). Defaults to 50.
-        generator (torch.Generator, optional): source of the sampled indices.
+        generator (torch.Generator, optional): source of the sampled indices (a CPU generator:
+            indices are drawn on the host whatever the storage).
+        device (torch.device, optional): ``None`` (default): everything on the host. A device:
+            the frames and per-transition arrays live there, the frame ids on the host, and
+            samples are made there (the module docstring); ``"cpu"`` runs that path on the host.
 
     Reads from each :meth:`extend` batch (shaped ``[T]`` for one env or ``[envs, T]``, time
     last, as TorchRL collectors give): ``pixels_key``, ``"action"``, and under ``"next"``:
@@ -69,6 +73,7 @@ class FrameStackReplayBuffer:
         pixels_key: NestedKey = "pixels",
         min_episode_steps: int = 50,
         generator: torch.Generator | None = None,
+        device: str | torch.device | None = None,
     ):
         if capacity < 1 or frame_stack < 1 or min_episode_steps < 1:
             raise ValueError(
@@ -83,27 +88,84 @@ class FrameStackReplayBuffer:
         self.frame_shape, self.action_shape = tuple(frame_shape), tuple(action_shape)
         self.pixels_key = pixels_key
         self.generator = generator
-        self.num_slots = capacity + math.ceil(capacity * frame_stack / min_episode_steps) + 64 * frame_stack
-        # torch.empty maps the pages lazily: memory grows with what is written, not the capacity.
-        self._frames = torch.empty((self.num_slots, *self.frame_shape), dtype=torch.uint8)
-        self._obs_ids = torch.zeros((capacity, frame_stack), dtype=torch.int64)
+        self.num_slots = self.ring_slots(capacity, frame_stack, min_episode_steps)
+        self.device = None if device is None else torch.device(device)
+        storage = self.device or torch.device("cpu")
+        # torch.empty maps the pages lazily on the host: memory grows with what is written, not the capacity.
+        self._frames = torch.empty((self.num_slots, *self.frame_shape), dtype=torch.uint8, device=storage)
+        self._obs_ids = torch.zeros((capacity, frame_stack), dtype=torch.int64)  # always on the host
         self._next_ids = torch.zeros((capacity, frame_stack), dtype=torch.int64)
-        self._action = torch.zeros((capacity, *self.action_shape), dtype=torch.float32)
-        self._reward = torch.zeros((capacity, 1), dtype=torch.float32)
-        self._done = torch.zeros((capacity, 1), dtype=torch.bool)
-        self._terminated = torch.zeros((capacity, 1), dtype=torch.bool)
+        self._action = torch.zeros((capacity, *self.action_shape), dtype=torch.float32, device=storage)
+        self._reward = torch.zeros((capacity, 1), dtype=torch.float32, device=storage)
+        self._done = torch.zeros((capacity, 1), dtype=torch.bool, device=storage)
+        self._terminated = torch.zeros((capacity, 1), dtype=torch.bool, device=storage)
         self.frames_written = 0  # ids of frames ever written; slot = id % num_slots
         self.transitions_written = 0
         self._stacks: dict[int, torch.Tensor | None] = {}  # env index -> frame ids of its current stack
+        self._staged: tuple[list, list, list, list] | None = None  # device path: what an extend writes
+
+    @staticmethod
+    def ring_slots(capacity: int, frame_stack: int, min_episode_steps: int = 50) -> int:
+        """Frames the ring holds for ``capacity`` transitions (the module docstring)."""
+        return capacity + math.ceil(capacity * frame_stack / min_episode_steps) + 64 * frame_stack
+
+    @classmethod
+    def storage_bytes(cls, capacity: int, frame_stack: int, frame_shape: tuple[int, ...], action_shape: tuple[int, ...],
+                      min_episode_steps: int = 50) -> int:
+        """Bytes a full buffer stores on its device (what a device allocates up front): the frame
+        ring and the per-transition arrays."""
+        frames = cls.ring_slots(capacity, frame_stack, min_episode_steps) * math.prod(frame_shape)
+        return frames + capacity * (4 * math.prod(action_shape) + 4 + 1 + 1)
 
     def __len__(self) -> int:
         return min(self.transitions_written, self.capacity)
 
     def _write_frames(self, frames: torch.Tensor) -> torch.Tensor:
         ids = torch.arange(self.frames_written, self.frames_written + frames.shape[0])
-        self._frames[ids % self.num_slots] = frames
+        if self._staged is None:
+            self._frames[ids % self.num_slots] = frames
+        else:
+            self._staged[0].append(ids)
+            self._staged[1].append(frames)
         self.frames_written += frames.shape[0]
         return ids
+
+    def _write_row(self, i: int, action: torch.Tensor, reward: torch.Tensor, done: torch.Tensor,
+                   terminated: torch.Tensor) -> None:
+        if self._staged is None:
+            self._action[i] = action
+            self._reward[i] = reward.reshape(1)
+            self._done[i] = done.reshape(1)
+            self._terminated[i] = terminated.reshape(1)
+        else:
+            self._staged[2].append(i)
+            self._staged[3].append(torch.cat([action.reshape(-1).float(), reward.reshape(1).float(),
+                                              done.reshape(1).float(), terminated.reshape(1).float()]))
+
+    def _send(self, tensor: torch.Tensor) -> torch.Tensor:
+        """A host tensor on the storage device: pinned and not waited for on CUDA."""
+        if self.device.type == "cuda":
+            return tensor.pin_memory().to(self.device, non_blocking=True)
+        return tensor.to(self.device)
+
+    def _flush(self) -> None:
+        """The device path's writes of one extend: its new frames and rows, three copies in all.
+        Where one extend wraps around the ring, only its last write of each slot is kept, as the
+        host path's writes in order leave it."""
+        frame_ids, frames, rows, values = self._staged
+        self._staged = None
+        ids, frames = torch.cat(frame_ids)[-self.num_slots:], torch.cat(frames)[-self.num_slots:]
+        rows = torch.tensor(rows, dtype=torch.int64)[-self.capacity:]
+        values = torch.stack(values)[-self.capacity:]
+        index = self._send(torch.cat([ids % self.num_slots, rows]))
+        slots, rows = index[:ids.numel()], index[ids.numel():]
+        self._frames.index_copy_(0, slots, self._send(frames))
+        values = self._send(values)
+        actions = math.prod(self.action_shape)
+        self._action.index_copy_(0, rows, values[:, :actions].reshape(-1, *self.action_shape))
+        self._reward.index_copy_(0, rows, values[:, actions:actions + 1])
+        self._done.index_copy_(0, rows, values[:, actions + 1:actions + 2] > 0.5)
+        self._terminated.index_copy_(0, rows, values[:, actions + 2:] > 0.5)
 
     def _split(self, stack: torch.Tensor) -> torch.Tensor:
         expected = (self.frame_stack * self.frame_shape[0], *self.frame_shape[1:])
@@ -128,6 +190,8 @@ class FrameStackReplayBuffer:
         action = data.get("action")
         reward = data.get(("next", "reward"))
         done, terminated = data.get(("next", "done")), data.get(("next", "terminated"))
+        if self.device is not None:
+            self._staged = ([], [], [], [])
         for env in range(data.shape[0]):
             for t in range(data.shape[1]):
                 stack = self._stacks.get(env)
@@ -137,12 +201,11 @@ class FrameStackReplayBuffer:
                 next_stack = torch.cat([stack[1:], self._write_frames(newest)])
                 i = self.transitions_written % self.capacity
                 self._obs_ids[i], self._next_ids[i] = stack, next_stack
-                self._action[i] = action[env, t]
-                self._reward[i] = reward[env, t].reshape(1)
-                self._done[i] = done[env, t].reshape(1)
-                self._terminated[i] = terminated[env, t].reshape(1)
+                self._write_row(i, action[env, t], reward[env, t], done[env, t], terminated[env, t])
                 self.transitions_written += 1
                 self._stacks[env] = None if bool(done[env, t].any()) else next_stack
+        if self._staged is not None:
+            self._flush()
 
     def valid_indices(self) -> torch.Tensor:
         """Indices of the stored transitions whose frames are all still in the ring."""
@@ -154,25 +217,39 @@ class FrameStackReplayBuffer:
         frames = self._frames[ids % self.num_slots]  # [B, S, C, H, W]
         return frames.reshape(ids.shape[0], self.frame_stack * self.frame_shape[0], *self.frame_shape[1:])
 
-    def sample(self, batch_size: int | None = None) -> TensorDict:
-        """A uniform sample (with replacement) of ``batch_size`` valid transitions."""
-        batch_size = self.batch_size if batch_size is None else batch_size
+    def _draw(self, batch_size: int) -> torch.Tensor:
+        """``batch_size`` indices of valid transitions, uniform with replacement, drawn on the host."""
         valid = self.valid_indices()
         if valid.numel() == 0:
             raise RuntimeError("the replay buffer is empty: extend it before sampling.")
-        index = valid[torch.randint(valid.numel(), (batch_size,), generator=self.generator)]
+        return valid[torch.randint(valid.numel(), (batch_size,), generator=self.generator)]
+
+    def sample(self, batch_size: int | None = None) -> TensorDict:
+        """A uniform sample (with replacement) of ``batch_size`` valid transitions (on the
+        buffer's device)."""
+        batch_size = self.batch_size if batch_size is None else batch_size
+        index = self._draw(batch_size)
+        if self.device is None:
+            obs, next_obs = self._gather(self._obs_ids[index]), self._gather(self._next_ids[index])
+        else:  # one copy to the device: the indices and the frame ids of both stacks
+            slots = torch.cat([index.unsqueeze(1), self._obs_ids[index], self._next_ids[index]], dim=1)
+            slots = self._send(slots)
+            index, obs_ids, next_ids = slots.split([1, self.frame_stack, self.frame_stack], dim=1)
+            index = index.squeeze(1)
+            obs, next_obs = self._gather(obs_ids), self._gather(next_ids)
         return TensorDict(
             {
-                self.pixels_key: self._gather(self._obs_ids[index]),
+                self.pixels_key: obs,
                 "action": self._action[index],
                 "next": {
-                    self.pixels_key: self._gather(self._next_ids[index]),
+                    self.pixels_key: next_obs,
                     "reward": self._reward[index],
                     "done": self._done[index],
                     "terminated": self._terminated[index],
                 },
             },
             batch_size=[batch_size],
+            device=self.device,
         )
 
     def nbytes(self) -> int:
@@ -189,10 +266,10 @@ class FrameStackReplayBuffer:
         return {
             "capacity": self.capacity, "frame_stack": self.frame_stack, "frame_shape": self.frame_shape,
             "num_slots": self.num_slots, "frames_written": self.frames_written,
-            "transitions_written": self.transitions_written, "frames": self._frames[:n].clone(),
+            "transitions_written": self.transitions_written, "frames": _host_copy(self._frames[:n]),
             "obs_ids": self._obs_ids[:size].clone(), "next_ids": self._next_ids[:size].clone(),
-            "action": self._action[:size].clone(), "reward": self._reward[:size].clone(),
-            "done": self._done[:size].clone(), "terminated": self._terminated[:size].clone(),
+            "action": _host_copy(self._action[:size]), "reward": _host_copy(self._reward[:size]),
+            "done": _host_copy(self._done[:size]), "terminated": _host_copy(self._terminated[:size]),
         }
 
     def load_state_dict(self, state: dict) -> None:
@@ -206,3 +283,8 @@ class FrameStackReplayBuffer:
             getattr(self, f"_{name}")[:size] = state[name]
         self.frames_written, self.transitions_written = state["frames_written"], state["transitions_written"]
         self.new_episodes()
+
+
+def _host_copy(tensor: torch.Tensor) -> torch.Tensor:
+    """A copy on the host (checkpoints hold host tensors whatever the storage)."""
+    return tensor.to("cpu", copy=True)

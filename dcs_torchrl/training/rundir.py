@@ -2,7 +2,9 @@
 
 ``run_config.json`` records the settings that define what is trained (everything but the
 budget, evaluation, logging, checkpoint cadence and how the same math is run: device,
-``network.channels_last``, ``network.compile``). Launching again with the same
+``network.channels_last``, ``network.compile``, ``optim.fused``, ``execution.*``,
+``replay_buffer.device``). ``precision.tf32`` is part of it: TF32 rounds the matmuls' and
+convolutions' inputs to 10 mantissa bits, other math than float32's. Launching again with the same
 settings in the same directory resumes from the last checkpoint, or does nothing if
 ``results.json`` already holds a run of at least the requested budget. Different settings are
 an error that names both values: nothing in the directory is overwritten.
@@ -18,14 +20,16 @@ __all__ = ["IDENTITY_EXCLUDED", "RunDirectory", "RunMismatchError", "finished_re
 
 # Config entries (dotted for nested ones) that may change between launches of the same run: the
 # budget, evaluation, logging and checkpoint cadence, and how the same math is run (device, NHWC
-# convolutions, torch.compile), so that a run started before a default changed still resumes.
+# convolutions, torch.compile, fused Adam, CUDA graphs, cuDNN's search, where the replay lives), so
+# that a run started before a default changed, or on another machine, still resumes.
 IDENTITY_EXCLUDED = ("total_frames", "eval", "logger", "checkpoint", "device", "experiment", "sweep", "progress",
-                     "network.channels_last", "network.compile")
+                     "network.channels_last", "network.compile", "optim.fused", "execution", "replay_buffer.device")
 
 
 # Settings added after runs were recorded: absent from an older run_config.json, they count as
-# the value they had before they existed (the 2021 blend off, the 256-pixel sky), under any section.
-ADDED_SETTINGS = {"reference_blend": (False, None), "texture_size": (256, None)}
+# the value they had before they existed (the 2021 blend off, the 256-pixel sky, float32 math),
+# under any section.
+ADDED_SETTINGS = {"reference_blend": (False, None), "texture_size": (256, None), "tf32": (False,)}
 
 
 def _added_later(key: str, value) -> bool:

@@ -21,7 +21,8 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from multiprocessing.connection import Connection, wait
 
 import torch
@@ -34,6 +35,7 @@ __all__ = ["ParallelSuiteEnv", "cores_per_process"]
 _STEP, _RESET, _SEED, _CLOSE = b"s", b"r", b"e", b"c"
 _OK, _FAILED = b"k", b"f"
 _POLL_S = 1.0  # how often a wait checks that the workers are alive
+_EGL_DEVICE = "MUJOCO_EGL_DEVICE_ID"
 
 
 class ParallelSuiteEnv(EnvBase):
@@ -52,6 +54,15 @@ class ParallelSuiteEnv(EnvBase):
             not a lambda; envs that render with EGL must be built in the worker (``spawn``).
 
     Keyword Args:
+        render_threads (int, optional): Mesa llvmpipe raster threads per worker (``LP_NUM_THREADS``;
+            0: each worker renders in its own thread); ``None`` (default) keeps the environment's
+            setting or Mesa's default. No effect on a GPU's EGL driver.
+        render_devices (list of int, optional): the EGL device each worker renders on
+            (``MUJOCO_EGL_DEVICE_ID``, an index into the machine's EGL devices, not a CUDA ordinal):
+            worker ``i`` on ``render_devices[i % len(render_devices)]``, so that the workers of
+            one run spread over the GPUs of a node; ``None`` (default): the device this process's
+            environment names (dm_control's default, the first). An index the machine does not
+            have fails at start with dm_control's message naming the valid range.
         mp_start_method (str): ``"spawn"`` (default; EGL contexts do not survive ``fork``).
 
     Examples:
@@ -65,16 +76,21 @@ class ParallelSuiteEnv(EnvBase):
     """
 
     def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
-                 mp_start_method: str = "spawn"):
+                 render_devices: Sequence[int] | None = None, mp_start_method: str = "spawn"):
         if not isinstance(num_workers, int) or isinstance(num_workers, bool) or num_workers < 1:
             raise ValueError(f"num_workers must be an int >= 1, got {num_workers!r}.")
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
             raise ValueError(f"render_threads must be an int >= 0 (0: render in the worker's own thread) or None, "
                              f"got {render_threads!r}.")
+        devices = None if render_devices is None else list(render_devices)
+        if devices is not None and (not devices or not all(isinstance(d, int) and d >= 0 for d in devices)):
+            raise ValueError(f"render_devices must be a non-empty list of EGL device indices (ints >= 0), "
+                             f"worker i rendering on render_devices[i % len], or None; got {render_devices!r}.")
         if not callable(create_env_fn):
             raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
         super().__init__(batch_size=[num_workers], device="cpu")
         self.num_workers = num_workers
+        self._render_devices = devices
         self._pipes: list[Connection] = []
         self._procs: list[mp.Process] = []
         self.is_closed = True
@@ -84,7 +100,8 @@ class ParallelSuiteEnv(EnvBase):
                 here, there = ctx.Pipe()
                 proc = ctx.Process(target=_work, args=(create_env_fn, there, index, render_threads), daemon=True,
                                    name=f"ParallelSuiteEnv-{index}")
-                proc.start()
+                with _egl_device(None if devices is None else devices[index % len(devices)]):
+                    proc.start()
                 there.close()
                 self._pipes.append(here)
                 self._procs.append(proc)
@@ -195,10 +212,14 @@ class ParallelSuiteEnv(EnvBase):
             proc = self._procs[index]
             if not proc.is_alive():
                 self.close(raise_if_closed=False)
+                device = "" if self._render_devices is None else (
+                    f"; or its render device, {_EGL_DEVICE}={self._render_devices[index % len(self._render_devices)]} "
+                    "(render_devices), is not an EGL device of this machine: dm_control then stops the worker as it "
+                    "starts, naming the valid range above")
                 raise RuntimeError(
                     f"ParallelSuiteEnv worker {index} died (exit code {proc.exitcode}): "
                     "look for its error above; an env that cannot be built in a spawned process "
-                    "(a lambda, a local function) fails this way."
+                    f"(a lambda, a local function) fails this way{device}."
                 )
 
 
@@ -216,6 +237,24 @@ def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
     return TensorDict(
         {"action": env.full_action_spec.zero(), "next": step_spec.zero()}, batch_size=env.batch_size, device=env.device
     ).share_memory_()
+
+
+@contextmanager
+def _egl_device(device: int | None):
+    """``MUJOCO_EGL_DEVICE_ID=device`` in the environment a worker is spawned with: dm_control reads
+    it once, when a process first imports its EGL renderer (before any code of the worker runs)."""
+    if device is None:
+        yield
+        return
+    before = os.environ.get(_EGL_DEVICE)
+    os.environ[_EGL_DEVICE] = str(device)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[_EGL_DEVICE]
+        else:
+            os.environ[_EGL_DEVICE] = before
 
 
 def cores_per_process(processes: int) -> int:

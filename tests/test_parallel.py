@@ -102,6 +102,10 @@ def test_bad_input_and_failing_workers_name_the_fix():
         ParallelSuiteEnv(2, "cartpole")
     with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*this env cannot be built"):
         ParallelSuiteEnv(1, _broken_env)
+    with pytest.raises(ValueError, match="render_devices must be a non-empty list of EGL device indices"):
+        ParallelSuiteEnv(1, FACTORY, render_devices=[-1])
+    with pytest.raises(ValueError, match="render_threads must be an int >= 0"):
+        ParallelSuiteEnv(1, FACTORY, render_threads=-1)
     env = ParallelSuiteEnv(1, FACTORY)
     with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*step before reset"):
         env.step(env.full_action_spec.zero().set("action", torch.zeros(1, 1)))
@@ -141,3 +145,20 @@ def _alive(pid: int) -> bool:
 
 def test_the_package_exports_it():
     assert dcs.ParallelSuiteEnv is ParallelSuiteEnv
+
+
+def test_each_worker_renders_on_its_chosen_egl_device():
+    """Worker i renders on render_devices[i % len]: device 0 (the machine's first EGL device) works and
+    renders the same frames; an index the machine lacks stops that worker with an error naming the setting."""
+    before = os.environ.get("MUJOCO_EGL_DEVICE_ID")
+    env = ParallelSuiteEnv(2, FACTORY, render_devices=[0])
+    assert os.environ.get("MUJOCO_EGL_DEVICE_ID") == before  # only the workers' environment
+    env.set_seed(3)
+    frames = env.reset()["pixels"]
+    env.close()
+    alone = ParallelSuiteEnv(2, FACTORY)
+    alone.set_seed(3)
+    assert torch.equal(frames, alone.reset()["pixels"])
+    alone.close()
+    with pytest.raises(RuntimeError, match=r"worker 1 died .* MUJOCO_EGL_DEVICE_ID=10000 \(render_devices\), is not an EGL device"):
+        ParallelSuiteEnv(2, FACTORY, render_devices=[0, 10_000])

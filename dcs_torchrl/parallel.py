@@ -30,7 +30,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
-__all__ = ["ParallelSuiteEnv", "cores_per_process"]
+__all__ = ["ParallelSuiteEnv"]
 
 _STEP, _RESET, _SEED, _CLOSE = b"s", b"r", b"e", b"c"
 _OK, _FAILED = b"k", b"f"
@@ -226,7 +226,7 @@ class ParallelSuiteEnv(EnvBase):
 def _copy(td: TensorDictBase) -> TensorDictBase:
     """A copy of ``td`` made by numpy, in this thread: torch's copy of a frame batch is split over
     its intra-op threads, which then spin waiting for more work, taking the workers' cores."""
-    return td._fast_apply(lambda t: torch.from_numpy(t.numpy().copy()), propagate_lock=False)
+    return td.apply(lambda t: torch.from_numpy(t.numpy().copy()))
 
 
 def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
@@ -255,11 +255,6 @@ def _egl_device(device: int | None):
             del os.environ[_EGL_DEVICE]
         else:
             os.environ[_EGL_DEVICE] = before
-
-
-def cores_per_process(processes: int) -> int:
-    """An equal share of this machine's cores for each of ``processes`` processes (at least 1)."""
-    return max(1, (os.cpu_count() or 1) // processes)
 
 
 def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, render_threads: int | None) -> None:

@@ -57,17 +57,9 @@ _FLAG_VALUES = (AUTO, True, False)
 
 
 def _select(cfg, key: str, default):
-    """``cfg``'s value at ``key``, or ``default`` where a config (e.g. a run recorded before the
-    setting existed) lacks it."""
-    return OmegaConf.select(cfg, key, default=default) if OmegaConf.is_config(cfg) else _select_dict(cfg, key, default)
-
-
-def _select_dict(tree: Mapping, key: str, default):
-    for part in key.split("."):
-        if not isinstance(tree, Mapping) or part not in tree:
-            return default
-        tree = tree[part]
-    return tree
+    """``cfg``'s value at ``key`` (a ``DictConfig`` or a dict), or ``default`` where a config (e.g. a
+    run recorded before the setting existed) lacks it."""
+    return OmegaConf.select(cfg if OmegaConf.is_config(cfg) else OmegaConf.create(dict(cfg)), key, default=default)
 
 
 def _flag(cfg, key: str, default, auto: bool) -> bool:

@@ -8,8 +8,9 @@ one photograph that a PyPI package ships inside its wheel — scikit-image's ast
 coffee, chelsea, rocket and motorcycle, scikit-learn's china and flower, matplotlib's
 grace_hopper — read from the installed files (nothing is downloaded). With more clips than
 photographs, each photograph gets further pans along other paths. Every clip is written
-as one folder of numbered PNG frames (``<out>/<photo>-<k>/00000.png``, ...), a layout the
-suite loads as background videos::
+as one folder of numbered PNG frames (``<out>/<k>-<photo>/00000.png``, ...), a layout the
+suite loads as background videos; clip k's name starts with k, so the first b videos the
+suite takes (sorted by name) are the first b clips built, the same as ``--clips b`` builds::
 
     make_env("cartpole", "swingup", background_dir="/tmp/natural_clips", ...)
 
@@ -20,6 +21,9 @@ luminance, mean HSV saturation, mean |Sobel| gradient in grey levels per pixel, 
 slope) for these clips and for the embedded stand-in clips (train and val, version
 ``dcs_torchrl.videos.EMBEDDED_VERSION``), all at 256x256. The clips are the same bytes
 on every run (fixed paths from a seeded numpy generator, OpenCV ``INTER_AREA`` resizes).
+A second table gives the mean of each statistic over the first b clips of each set for the
+b the benchmarks use (4, 8, 60 and every b up to the set): the first b videos are what an env
+with ``num_videos=b`` shows.
 Those packages are not dependencies of the suite: do not add them to it.
 """
 from __future__ import annotations
@@ -34,7 +38,7 @@ import cv2
 import numpy as np
 
 from dcs_torchrl.videos import EMBEDDED_VERSION, EmbeddedSource, open_source
-from dcs_torchrl.videos.statistics import NAMES, clip_statistics, summary
+from dcs_torchrl.videos.statistics import CLIP_NAMES, clip_statistics, summary
 
 SIZE = 256  # the sky texture's side: statistics are measured at this size
 
@@ -98,7 +102,7 @@ def build(out: Path, clips: int, frames: int, seed: int = 0) -> list[np.ndarray]
     for k in range(clips):
         name = names[k % len(names)]
         clip = pan_clip(images[name], frames, rng)
-        folder = out / f"{name}-{k // len(names)}"
+        folder = out / f"{k:0{len(str(clips - 1))}d}-{name}"  # sorted by name = built order
         folder.mkdir(parents=True)
         for i, frame in enumerate(clip):
             cv2.imwrite(str(folder / f"{i:05d}.png"), np.ascontiguousarray(frame[..., ::-1]))
@@ -106,9 +110,18 @@ def build(out: Path, clips: int, frames: int, seed: int = 0) -> list[np.ndarray]
     return videos
 
 
+PREFIXES = (4, 8, 60)  # the b of the benchmarks (easy, medium) and of the paper's background axis
+
+
 def row(label: str, per_clip: list[dict[str, float]]) -> str:
     stats = summary(per_clip)
-    return f"{label:<28}" + "".join(f"{stats[n][0]:>9.3f}{stats[n][1]:>9.3f}" for n in NAMES)
+    return f"{label:<28}" + "".join(f"{stats[n][0]:>9.3f}{stats[n][1]:>9.3f}" for n in CLIP_NAMES)
+
+
+def prefix_rows(label: str, per_clip: list[dict[str, float]]) -> list[str]:
+    """Per b in PREFIXES (that the set holds): the mean of each statistic over its first b clips."""
+    return [f"{f'{label}, first {b}':<28}" + "".join(f"{summary(per_clip[:b])[n][0]:>18.3f}" for n in CLIP_NAMES)
+            for b in PREFIXES if b <= len(per_clip)]
 
 
 def main(argv=None) -> None:
@@ -124,17 +137,25 @@ def main(argv=None) -> None:
     natural = open_source(out)  # read back as the suite will: proves the folder loads
     print(f"wrote {len(natural)} clips of {args.frames} frames to {out} (load with background_dir={str(out)!r})")
     print(f"\nframe statistics at {SIZE}x{SIZE}, each the mean over a clip's frames; mean and min over clips")
-    print(f"{'':<28}" + "".join(f"{n:>18}" for n in NAMES))
-    print(f"{'':<28}" + "".join(f"{'mean':>9}{'min':>9}" for _ in NAMES))
-    print(row(f"natural pans ({len(natural)})", clip_statistics(natural.frames(i, SIZE) for i in range(len(natural)))))
+    print(f"{'':<28}" + "".join(f"{n:>18}" for n in CLIP_NAMES))
+    print(f"{'':<28}" + "".join(f"{'mean':>9}{'min':>9}" for _ in CLIP_NAMES))
+    sets = {"natural pans": clip_statistics(natural.frames(i, SIZE) for i in range(len(natural)))}
+    print(row(f"natural pans ({len(natural)})", sets["natural pans"]))
     for split in ("train", "val"):
         source = EmbeddedSource(split)
         start = time.perf_counter()
         per_clip = clip_statistics(source.frames(i, SIZE) for i in range(len(source)))
-        label = f"embedded v{EMBEDDED_VERSION} {split} ({len(source)})"
-        print(row(label, per_clip) + f"   ({time.perf_counter() - start:.0f} s)")
+        label = f"embedded v{EMBEDDED_VERSION} {split}"
+        sets[label] = per_clip
+        print(row(f"{label} ({len(source)})", per_clip) + f"   ({time.perf_counter() - start:.0f} s)")
+    print("\nthe first b clips of each list (what num_videos=b shows), mean over them")
+    print(f"{'':<28}" + "".join(f"{n:>18}" for n in CLIP_NAMES))
+    for label in ("natural pans", f"embedded v{EMBEDDED_VERSION} train"):
+        print("\n".join(prefix_rows(label, sets[label])))
     print("\ncontrast: std of Rec. 601 luminance in [0, 1]; saturation: mean OpenCV HSV S / 255; "
-          "gradient: mean |Sobel_x| + |Sobel_y| / 8 of luminance in grey levels; slope: of the radial power spectrum")
+          "gradient: mean |Sobel_x| + |Sobel_y| / 8 of luminance in grey levels; slope: of the radial power spectrum; "
+          "motion: mean |change of luminance| between frames in grey levels; brightness: mean luminance where the "
+          "cameras look (dcs_torchrl.videos.statistics)")
 
 
 if __name__ == "__main__":

@@ -243,22 +243,31 @@ def _stored_points(stored: Path, agent: dict, out: str | os.PathLike) -> dict[st
     return {_point_id(record): record["eval"] for record in records}
 
 
-def _background(background_dir: str | os.PathLike | None) -> tuple[str | None, int]:
-    """The background axis' folder (``None``: the embedded videos) and its b: 60 videos (the
-    paper's, Sec. 5.1), or all of a folder that holds fewer."""
+def _background(background_dir: str | os.PathLike | None, num_videos: int | None = None) -> tuple[str | None, int]:
+    """The background axis' folder (``None``: the embedded videos) and its b: ``num_videos``, or
+    by default 60 videos (the paper's, Sec. 5.1) or all of a folder that holds fewer."""
     from dcs_torchrl.distractions.background import as_video_source
 
-    if background_dir is None:
-        return None, 60
-    background_dir = os.fspath(Path(background_dir).expanduser())
-    if not Path(background_dir).is_dir():
-        raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
-                                "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
-    return background_dir, min(60, len(as_video_source(background_dir, "train")))
+    if num_videos is not None and num_videos < 1:
+        raise ValueError(f"--num-videos must be >= 1 (the first b training videos), got {num_videos}.")
+    if background_dir is not None:
+        background_dir = os.fspath(Path(background_dir).expanduser())
+        if not Path(background_dir).is_dir():
+            raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
+                                    "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
+    available = len(as_video_source(background_dir, "train"))
+    if num_videos is None:
+        return background_dir, min(60, available)
+    if num_videos > available:
+        where = background_dir or "the embedded stand-in set"
+        raise ValueError(f"--num-videos {num_videos}: {where} holds {available} training videos; "
+                         f"choose at most {available}.")
+    return background_dir, num_videos
 
 
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
-                workers: int = 1, background_dir: str | os.PathLike | None = None, progress: bool = True) -> list[dict]:
+                workers: int = 1, background_dir: str | os.PathLike | None = None, num_videos: int | None = None,
+                progress: bool = True) -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
     Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
@@ -268,7 +277,9 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     stand-ins' version, or a folder's path and a digest of its files' names and sizes). Other
     points are evaluated (stored ones that do not match stay, for a run that matches them).
     ``out`` holding another agent's points, or this agent's from another checkpoint, is refused
-    before anything is evaluated. ``workers`` processes each evaluate whole points.
+    before anything is evaluated. ``workers`` processes each evaluate whole points. The background
+    axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
+    folder that holds fewer).
 
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
@@ -279,7 +290,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     results = _results(directory)
     if episodes < 1 or workers < 1:
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
-    background_dir, num_videos = _background(background_dir)
+    background_dir, num_videos = _background(background_dir, num_videos)
     keys = [p.key(background_dir, num_videos) for p in points]
     settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
     identity = _agent_identity(directory, results)
@@ -303,9 +314,10 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
 CSV_COLUMNS = ("method", "domain", "task", "seed", "axis", "setting", "reference_blend", "value", "mean", "stderr", "episodes")
 
 
-def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "") -> dict[str, Path]:
+def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "", num_videos: int = 60) -> dict[str, Path]:
     """``robustness.csv``, ``robustness.md`` (half-score intensity per axis, curves) and
-    ``robustness.png`` (one panel per axis, as the report's robustness figure) in ``out``."""
+    ``robustness.png`` (one panel per axis, as the report's robustness figure) in ``out``;
+    ``num_videos``: the background axis' b."""
     import pandas as pd
 
     from dcs_torchrl.report.curves import BLEND_2021, blend_suffix, half_text, half_score_table
@@ -339,7 +351,7 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "")
             md_table(["axis", "setting", "intensity", "return", "episodes"], point_rows), ""]
     paths["md"].write_text("\n".join(text))
     curves_figure(curves, "robustness", paths["png"], note=title, spread="mean ± s.e. over episodes",
-                  axes_shown=[AXES[axis] for axis in AXES if any(r["axis"] == axis for r in rows)])
+                  axes_shown=[AXES[axis] for axis in AXES if any(r["axis"] == axis for r in rows)], num_videos=num_videos)
     return paths
 
 
@@ -364,6 +376,9 @@ def main(argv=None) -> dict[str, Path]:
                              "'both': a curve of each")
     parser.add_argument("--background-dir", default=None, help="DAVIS 2017 JPEGImages/480p or a folder of videos "
                                                               "(default: the embedded stand-in videos)")
+    parser.add_argument("--num-videos", type=int, default=None, metavar="B",
+                        help="the background axis' b: its first B training videos (default: 60, the paper's, "
+                             "or all of a --background-dir that holds fewer)")
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes, a point each")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
@@ -374,10 +389,12 @@ def main(argv=None) -> dict[str, Path]:
     points = sweep_points(args.axes, args.intensities, args.setting, blend)
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
-                       background_dir=args.background_dir, progress=not args.no_progress)
+                       background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress)
     videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
+    videos += f", b = {args.num_videos} videos" if args.num_videos is not None else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "
-                                           f"(seed {rows[0]['seed']}), {args.episodes} episodes per point{videos}")
+                                           f"(seed {rows[0]['seed']}), {args.episodes} episodes per point{videos}",
+                          num_videos=_background(args.background_dir, args.num_videos)[1])
     print(paths["md"].read_text().split("## Every point")[0].rstrip())
     print(f"\n{len(points)} points in {time.time() - started:.0f} s; wrote {', '.join(str(p) for p in paths.values())}")
     return paths

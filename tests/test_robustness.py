@@ -193,6 +193,18 @@ def test_points_on_another_video_folder_are_evaluated_again(tmp_path, evaluated,
     assert [o.get("background_blend") for o in evaluated] == [0.5, None, 0.5]
 
 
+def test_num_videos_sets_the_background_axis_b_and_keys_its_points(tmp_path, evaluated):
+    points = [Point("background", 0.5, False), Point("camera", 0.5, False)]
+    sweep(tmp_path, points)
+    sweep(tmp_path, points, num_videos=8)
+    sweep(tmp_path, points, num_videos=8)  # stored: reused
+    assert [(o.get("background_blend"), o.get("num_videos")) for o in evaluated] == [(0.5, 60), (None, None), (0.5, 8)]
+    with pytest.raises(ValueError, match="--num-videos 61: the embedded stand-in set holds 60 training videos"):
+        sweep(tmp_path, points, num_videos=61)
+    with pytest.raises(ValueError, match="--num-videos must be >= 1"):
+        sweep(tmp_path, points, num_videos=0)
+
+
 def test_a_changed_env_default_evaluates_every_point_again(tmp_path, evaluated, monkeypatch):
     from types import MappingProxyType
 

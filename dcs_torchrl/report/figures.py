@@ -51,7 +51,8 @@ def _method_handles(methods) -> list:
 
 
 def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note: str = "",
-                  spread: str = "mean ± s.e. over seeds", axes_shown: Sequence[str] | None = None) -> Path:
+                  spread: str = "mean ± s.e. over seeds", axes_shown: Sequence[str] | None = None,
+                  num_videos: int = 60) -> Path:
     """Score vs intensity, one panel per sweep of ``experiment``, saved as a PNG; with several
     tasks (the ``task`` column), the mean over them on the first row, then a row per task.
 
@@ -62,6 +63,7 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         note: a line under the title (e.g. that the backgrounds are stand-in videos).
         spread: what the line and its band are, in the title.
         axes_shown: only the panels of these axes (default: every panel of the experiment).
+        num_videos: the b of the background-blend panels' label (the paper's: 60).
     """
     panels = [p for p in EXPERIMENTS[experiment] if axes_shown is None or p.axis in axes_shown]
     curves = with_defaults(curves)
@@ -74,7 +76,8 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     for i, (row, task) in enumerate(zip(axes, tasks)):
         for ax, panel in zip(row, panels):
             mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split) & (curves.task == task)]
-            _draw_curves(ax, mine, panel, title=panel.title if i == 0 else None, xlabel=i == len(tasks) - 1)
+            label = panel.xlabel.replace("(b = 60 videos)", f"(b = {num_videos} videos)") if i == len(tasks) - 1 else None
+            _draw_curves(ax, mine, panel, title=panel.title if i == 0 else None, xlabel=label)
         if task == ALL_TASKS:
             row[0].set_ylabel(YLABEL.replace("tasks", f"{n_tasks} tasks") if n_tasks > 1 else "mean episode return")
         else:
@@ -93,7 +96,7 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     return _save(fig, path)
 
 
-def _draw_curves(ax, mine: pd.DataFrame, panel, title: str | None, xlabel: bool) -> None:
+def _draw_curves(ax, mine: pd.DataFrame, panel, title: str | None, xlabel: str | None) -> None:
     """One panel of :func:`curves_figure`: its curves (one task's, or the mean's) over the panel's axis."""
     values = sorted(set(mine["value"]))
     for (dynamic, method, blend), g in mine.groupby(["dynamic", "method", "blend"], sort=False):
@@ -112,7 +115,7 @@ def _draw_curves(ax, mine: pd.DataFrame, panel, title: str | None, xlabel: bool)
     if title:
         ax.set_title(title, fontsize=11)
     if xlabel:
-        ax.set_xlabel(panel.xlabel)
+        ax.set_xlabel(xlabel)
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     if mine.empty:

@@ -10,7 +10,11 @@ objects moving through it, no cuts. Version 2 (:data:`EMBEDDED_VERSION`) is colo
 to natural-image statistics (see :mod:`dcs_torchrl.videos.statistics`): luminance RMS
 contrast ~0.22 and HSV saturation ~0.52 per split (every clip >= 0.19 and >= 0.42), like
 slow pans over natural photographs (~0.21 and ~0.5; ``benchmarks/natural_clips.py``);
-version 1 had ~0.13 and ~0.33. They are *not* the paper's
+version 1 had ~0.13 and ~0.33. Version 3 also sets each clip's brightness and warmth (mean
+R - B) where the tasks' cameras look to natural-photo levels (:func:`tone`), spread so that
+the first b clips span the natural range for every b (the benchmarks use b = 4, 8 and 60):
+version 2's clips were darker and much cooler there than natural footage, and so distracted
+the shipped agents less. They are *not* the paper's
 backgrounds: to reproduce its numbers, download DAVIS 2017 (TrainVal 480p,
 https://davischallenge.org/davis2017/code.html) and pass its folder, e.g.
 ``make_env(..., background_dir="~/data/DAVIS")`` or
@@ -19,9 +23,9 @@ https://davischallenge.org/davis2017/code.html) and pass its folder, e.g.
 A clip is generated the first time it is used (~0.15 s at 256x256), straight at the
 texture size, and then shared through the frame cache. Each clip has a fixed seed, so
 it is the same bits on every machine for a given numpy and OpenCV version (only IEEE
-arithmetic and OpenCV's bit-exact ``INTER_LINEAR_EXACT`` resize are used; the colour
-grade's means and gains are rounded to coarse steps so a reduction's last bit cannot
-change them).
+arithmetic, numpy's power for the tone curves' tables and OpenCV's bit-exact
+``INTER_LINEAR_EXACT`` resize are used; the colour grade's means, gains and gammas are
+rounded to coarse steps so a reduction's last bit cannot change them).
 """
 from __future__ import annotations
 
@@ -33,12 +37,15 @@ from dcs_torchrl.videos.lists import canonical_split
 from dcs_torchrl.videos.procedural import F32, bezier, paste, render, uniform
 from dcs_torchrl.videos.scenes import SCENES, paint
 from dcs_torchrl.videos.source import VideoSource
+from dcs_torchrl.videos.statistics import looked_at
 
 # The version of the embedded set: results computed on different versions are not comparable, so
 # every run records it (EmbeddedSource.version). 1: the first stand-ins (luminance RMS contrast ~0.13,
-# HSV saturation ~0.33); 2: natural-image statistics (see the module docstring). Bump it whenever a
+# HSV saturation ~0.33); 2: natural-image statistics (see the module docstring); 3: as 2, each clip's
+# brightness and warmth where the tasks' cameras look set to natural-photo levels (tone), stratified so
+# that every prefix of the training list (the first b videos) spans the same ranges. Bump it whenever a
 # clip's bytes change; it is part of the frame cache key, so stale frames are never reused.
-EMBEDDED_VERSION = 2
+EMBEDDED_VERSION = 3
 GENERATOR_VERSION = EMBEDDED_VERSION  # the name before version 2
 CLIPS = {"train": 60, "val": 30}
 LENGTHS = (50, 80)  # frames, inclusive; DAVIS 2017 videos average ~70
@@ -156,13 +163,90 @@ def floor_grade(frames: np.ndarray) -> None:
         frame[...] = np.floor(graded * F32(255) + F32(0.5)).astype(np.uint8)
 
 
-def generate_clip(seed, size: int, scene: str | None = None) -> np.ndarray:
+# Tone (version 3): where the six tasks' cameras look into the sky (statistics.looked_at), each clip's
+# mean Rec. 601 luminance and its warmth, the mean of R - B (R, G, B in [0, 1]), are brought to the clip's
+# targets by per-channel curves. Pans over natural photographs (benchmarks/natural_clips.py) have
+# brightness 0.40 and warmth 0.19 there on average (5-95%: 0.2-0.6 and -0.15-0.45: skin, fur, wood,
+# brick, flowers); version 2's graded scenes, bright sky over darker ground, blue and green, had 0.36 and
+# 0.04. A cool background differs little from the tasks' blue skies, a warm one a lot: over single clips
+# the shipped cartpole agent's score at beta_bg = 0.3 follows warmth more than any other statistic
+# (docs/results.md). The targets spread evenly over BRIGHTNESS and WARMTH along a Halton sequence (base 2
+# and base 3), so the first b clips span both ranges for every b.
+BRIGHTNESS = (0.3, 0.54)
+WARMTH = (-0.1, 0.46)
+
+
+def van_der_corput(n: int, base: int = 2) -> float:
+    """The n-th (n >= 1) point of the van der Corput sequence in (0, 1): 1/2, 1/4, 3/4, 1/8, ... in base 2."""
+    out, scale = 0.0, 1.0 / base
+    while n:
+        n, digit = divmod(n, base)
+        out += scale * digit
+        scale /= base
+    return out
+
+
+def tone_targets(index: int) -> tuple[float, float]:
+    """Clip ``index``'s (brightness, warmth) targets (see BRIGHTNESS and WARMTH), multiples of 1/1024."""
+    return tuple(float(np.floor((low + (high - low) * van_der_corput(index + 1, base)) * 1024) / 1024)
+                 for (low, high), base in ((BRIGHTNESS, 2), (WARMTH, 3)))
+
+
+def _solve(measure, target: float, low: float, high: float) -> float:
+    """The x in [low, high] (a multiple of 1/64) where the increasing ``measure(x)`` meets ``target``."""
+    for _ in range(12):
+        middle = (low + high) / 2
+        low, high = (low, middle) if measure(middle) > target else (middle, high)
+    return round((low + high) / 2 * _STEP) / _STEP
+
+
+_LEVELS = np.arange(256, dtype=np.float64) / 255.0
+
+
+def _table(curve: np.ndarray) -> np.ndarray:
+    return np.floor(np.clip(curve, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def _tables(gamma: float, warm: float) -> np.ndarray:
+    """uint8 [3, 256]: R times 1 + warm, B times 1 - warm, then every channel to the power gamma."""
+    gains = np.array([1.0 + warm, 1.0, 1.0 - warm])[:, None]
+    return _table(np.clip(_LEVELS[None, :] * gains, 0.0, 1.0) ** gamma)
+
+
+def _apply(frames: np.ndarray, tables: np.ndarray) -> np.ndarray:
+    return np.stack([tables[c][frames[..., c]] for c in range(3)], axis=-1)
+
+
+def tone(frames: np.ndarray, brightness: float, warmth: float) -> None:
+    """Sets the mean luminance and the mean R - B of ``looked_at(frames)`` (uint8, in place) to
+    ``brightness`` and ``warmth``: R and B scaled by 1 + w and 1 - w (w in [-0.75, 0.75]), then every
+    channel through a gamma curve (gamma in [1/4, 4]), each a multiple of 1/64 found by bisection,
+    two rounds. Lookup tables: black stays black, and each channel keeps the order of its values."""
+    sample = np.ascontiguousarray(looked_at(frames[::4, ::2, ::2]))  # every 4th frame, every 2nd pixel
+
+    def stats(gamma: float, warm: float) -> tuple[float, float]:
+        graded = _apply(sample, _tables(gamma, warm)).astype(np.float64) / 255.0
+        luma = graded[..., 0] * 0.299 + graded[..., 1] * 0.587 + graded[..., 2] * 0.114
+        return float(np.mean(luma)), float(np.mean(graded[..., 0] - graded[..., 2]))
+
+    gamma, warm = 1.0, 0.0
+    for _ in range(2):
+        warm = _solve(lambda w: stats(gamma, w)[1], warmth, -0.75, 0.75)
+        gamma = -_solve(lambda g: stats(-g, warm)[0], brightness, -4.0, -0.25)  # the mean falls as gamma grows
+    if (gamma, warm) != (1.0, 0.0):
+        frames[...] = _apply(frames, _tables(gamma, warm))
+
+
+def generate_clip(seed, size: int, scene: str | None = None,
+                  tone_to: tuple[float, float] | None = None) -> np.ndarray:
     """One embedded clip as uint8 [T, size, size, 3] (RGB), T in [50, 80], from its seed.
 
     Args:
         seed: anything ``np.random.default_rng`` accepts (see :func:`clip_seed`).
         size (int): side of the square frames; the scene is drawn at this resolution.
         scene (str, optional): one of ``scenes.SCENES``; drawn from the seed if ``None``.
+        tone_to (tuple, optional): (brightness, warmth) where the cameras look (:func:`tone`);
+            ``None`` leaves the graded clip's own.
 
     Examples:
         >>> clip = generate_clip(clip_seed("train", 0), 64)
@@ -243,6 +327,8 @@ def generate_clip(seed, size: int, scene: str | None = None) -> np.ndarray:
             track.draw(canvas, i, left, top)
         cv2.resize(canvas, (size, size), dst=out[i], interpolation=cv2.INTER_LINEAR_EXACT)
     floor_grade(out)
+    if tone_to is not None:
+        tone(out, *tone_to)
     return out
 
 
@@ -275,7 +361,8 @@ class EmbeddedSource(VideoSource):
         super().__init__(names, ("embedded", EMBEDDED_VERSION, self.split))
 
     def _decode(self, index: int, size: int) -> np.ndarray:
-        return generate_clip(clip_seed(self.split, index), size, SCENE_CYCLE[index % len(SCENE_CYCLE)])
+        return generate_clip(clip_seed(self.split, index), size, SCENE_CYCLE[index % len(SCENE_CYCLE)],
+                             tone_targets(index))
 
     def __repr__(self) -> str:
         return f"EmbeddedSource(split={self.split!r})"

@@ -17,6 +17,12 @@ frames given:
   Hann-windowed luminance, over frequencies 4/N .. 0.4 cycles per pixel (natural images:
   about -2).
 
+Two more per clip (:func:`clip_statistics`):
+
+- ``motion``: the mean over consecutive frames of the mean |ΔY| in grey levels (Y * 255).
+- ``brightness``: the mean luminance Y of the part of the frames the tasks' cameras look at
+  most (:func:`looked_at`: the lower three quarters, middle half of the columns).
+
 Examples:
     >>> import numpy as np
     >>> from dcs_torchrl.videos.statistics import frame_statistics
@@ -30,6 +36,15 @@ import numpy as np
 
 LUMA = np.array([0.299, 0.587, 0.114])  # Rec. 601
 NAMES = ("contrast", "saturation", "gradient", "slope")
+CLIP_NAMES = NAMES + ("motion", "brightness")
+
+
+def looked_at(frames: np.ndarray) -> np.ndarray:
+    """The part of square frames [..., S, S, 3] the six tasks' cameras see most of when the video is
+    their sky: rows S/4 to S (cartpole looks at the upper middle of that, ball_in_cup, finger and
+    walker at its lower part), columns S/4 to 3S/4."""
+    size = frames.shape[-2]
+    return frames[..., size // 4 :, size // 4 : 3 * size // 4, :]
 
 
 def luminance(frames: np.ndarray) -> np.ndarray:
@@ -86,12 +101,17 @@ def frame_statistics(frames: np.ndarray, slope: bool = True) -> dict[str, float]
 
 
 def clip_statistics(clips, frames_per_clip: int | None = None, slope: bool = True) -> list[dict[str, float]]:
-    """:func:`frame_statistics` of each clip, on all its frames or ``frames_per_clip`` evenly spaced ones."""
+    """:func:`frame_statistics` of each clip (uint8 [T, S, S, 3]), on all its frames or
+    ``frames_per_clip`` evenly spaced ones, with its ``motion`` (over all its frames) and
+    ``brightness`` (see the module docstring)."""
     out = []
     for clip in clips:
+        y = luminance(clip) * 255.0
+        extra = {"motion": float(np.mean(np.abs(np.diff(y, axis=0)))) if len(clip) > 1 else 0.0,
+                 "brightness": float(looked_at(y[..., None])[..., 0].mean()) / 255.0}
         if frames_per_clip is not None and len(clip) > frames_per_clip:
             clip = clip[np.linspace(0, len(clip) - 1, frames_per_clip).round().astype(int)]
-        out.append(frame_statistics(clip, slope=slope))
+        out.append(frame_statistics(clip, slope=slope) | extra)
     return out
 
 

@@ -6,7 +6,18 @@ import pytest
 
 import dcs_torchrl.videos
 from dcs_torchrl.videos import EMBEDDED_VERSION, EmbeddedSource, cache_info, frame_statistics
-from dcs_torchrl.videos.embedded import LENGTHS, SCENE_CYCLE, clip_seed, generate_clip
+from dcs_torchrl.videos.embedded import (
+    BRIGHTNESS,
+    LENGTHS,
+    SCENE_CYCLE,
+    WARMTH,
+    clip_seed,
+    generate_clip,
+    tone,
+    tone_targets,
+    van_der_corput,
+)
+from dcs_torchrl.videos.statistics import clip_statistics, looked_at, luminance
 
 
 def test_split_sizes_and_names():
@@ -20,7 +31,7 @@ def test_split_sizes_and_names():
 
 def test_same_bits_every_time():
     first = EmbeddedSource().frames(2, 48)
-    again = generate_clip(clip_seed("train", 2), 48, SCENE_CYCLE[2])
+    again = generate_clip(clip_seed("train", 2), 48, SCENE_CYCLE[2], tone_targets(2))
     assert first.dtype == np.uint8 and first.shape[1:] == (48, 48, 3) and not first.flags.writeable
     assert np.array_equal(first, again)
     assert cache_info().decodes == 1
@@ -28,17 +39,17 @@ def test_same_bits_every_time():
 
 # sha256 of two clips at 32x32: the clips must not change silently, since results computed on them
 # would no longer be comparable. If a change is intended, bump EMBEDDED_VERSION and update these.
-GOLDEN = {("train", 0, "meadow"): "ecb0d8544965a583", ("val", 1, "city"): "864e76de7f15f1fa"}
+GOLDEN = {("train", 0, "meadow"): "27baea50f23d12b3", ("val", 1, "city"): "a3ee010fad772095"}
 
 
 def test_version_is_exposed_and_keys_the_cache():
-    assert EMBEDDED_VERSION == dcs_torchrl.videos.EMBEDDED_VERSION == EmbeddedSource("val").version == 2
+    assert EMBEDDED_VERSION == dcs_torchrl.videos.EMBEDDED_VERSION == EmbeddedSource("val").version == 3
     assert EMBEDDED_VERSION in EmbeddedSource().cache_key  # frames of another version are never reused
 
 
 @pytest.mark.parametrize("split, index, scene", list(GOLDEN))
 def test_clips_do_not_change_silently(split, index, scene):
-    clip = generate_clip(clip_seed(split, index), 32, scene)
+    clip = generate_clip(clip_seed(split, index), 32, scene, tone_targets(index))
     digest = hashlib.sha256(clip.tobytes()).hexdigest()[:16]
     assert digest == GOLDEN[split, index, scene], f"embedded clips changed (EMBEDDED_VERSION={EMBEDDED_VERSION})"
 
@@ -68,6 +79,53 @@ def test_the_middle_of_the_frame_is_busy():
         clip = EmbeddedSource().frames(index, 256)[::10, 77:179, 77:179]
         stats = frame_statistics(clip, slope=False)
         assert stats["contrast"] >= 0.12 and stats["gradient"] >= 5, (index, stats)
+
+
+def test_tone_targets_spread_evenly_in_every_prefix():
+    """Version 3: the first b clips' brightness and warmth targets cover their ranges evenly for every
+    b, so the first 4 or 8 videos (the easy and medium benchmarks) look like all 60 on average."""
+    assert [van_der_corput(n) for n in range(1, 8)] == [0.5, 0.25, 0.75, 0.125, 0.625, 0.375, 0.875]
+    assert [van_der_corput(n, 3) for n in range(1, 5)] == [1 / 3, 2 / 3, 1 / 9, 4 / 9]
+    targets = np.array([tone_targets(i) for i in range(60)])
+    assert len({tuple(t) for t in targets}) == 60
+    for column, (low, high) in enumerate((BRIGHTNESS, WARMTH)):
+        values = targets[:, column]
+        assert np.all((low <= values) & (values < high))
+        for b in (3, 4, 8, 16, 60):
+            assert abs(values[:b].mean() - (low + high) / 2) <= 1.5 * (high - low) / b, (column, b)
+            assert values[:b].max() - values[:b].min() >= (high - low) * (1 - 3 / b) - 0.01, (column, b)
+
+
+def _tone_of(clip):
+    part = looked_at(clip[::4]).astype(np.float64) / 255
+    return luminance(looked_at(clip[::4])).mean(), (part[..., 0] - part[..., 2]).mean()
+
+
+def test_tone_reaches_its_targets_with_monotone_curves():
+    clip = generate_clip(clip_seed("train", 4), 64, "meadow")
+    for brightness, warmth in ((0.3, -0.1), (0.5, 0.35), (0.42, 0.2)):  # brightest and warmest at once: R clips
+        out = clip.copy()
+        tone(out, brightness, warmth)
+        got = _tone_of(out)
+        assert abs(got[0] - brightness) < 0.02 and abs(got[1] - warmth) < 0.02, (brightness, warmth, got)
+        for c in range(3):  # one non-decreasing curve per channel: out = table[clip]
+            table = np.zeros(256, np.int64)
+            table[clip[..., c].ravel()] = out[..., c].ravel()
+            assert np.array_equal(table[clip[..., c]], out[..., c])
+            assert np.all(np.diff(table[np.unique(clip[..., c])]) >= 0)
+    black = np.zeros((8, 16, 16, 3), np.uint8)
+    tone(black, 0.3, 0.2)  # no curve moves black: nothing to do, nothing broken
+    assert not black.any()
+
+
+def test_the_served_clips_have_their_tone():
+    source = EmbeddedSource()
+    for index in (0, 1, 3):
+        clip = source.frames(index, 128)
+        brightness, warmth = _tone_of(clip)
+        assert abs(brightness - tone_targets(index)[0]) < 0.02 and abs(warmth - tone_targets(index)[1]) < 0.02
+        stats = clip_statistics([clip], frames_per_clip=8, slope=False)[0]
+        assert abs(stats["brightness"] - brightness) < 0.02 and stats["motion"] > 2, (index, stats)
 
 
 def test_generation_is_deterministic_at_the_texture_size():

@@ -6,11 +6,11 @@ stand-in: 60 training and 30 validation clips of 50-80 frames, each a textured s
 (bushes, rocks, flowers, signs, cones, crates, parasols) seen by a smoothly panning and
 zooming camera that follows one large subject near the middle of the frame (an animal,
 a person, a vehicle or a boat, as DAVIS shows), with one to four more patterned, shaded
-objects moving through it, no cuts. Version 2 (:data:`EMBEDDED_VERSION`) is colour-graded
-to natural-image statistics (see :mod:`dcs_torchrl.videos.statistics`): luminance RMS
-contrast ~0.22 and HSV saturation ~0.52 per split (every clip >= 0.19 and >= 0.42), like
-slow pans over natural photographs (~0.21 and ~0.5; ``benchmarks/natural_clips.py``);
-version 1 had ~0.13 and ~0.33. Version 3 also sets each clip's brightness and warmth (mean
+objects moving through it, no cuts. Since version 2 they are colour-graded to natural-image
+statistics (see :mod:`dcs_torchrl.videos.statistics`): luminance RMS contrast ~0.21 and HSV
+saturation ~0.47 per split in version 3 (:data:`EMBEDDED_VERSION`; every clip >= 0.17 and
+>= 0.28), like slow pans over natural photographs (~0.21 and ~0.49;
+``benchmarks/natural_clips.py``); version 1 had ~0.13 and ~0.33. Version 3 also sets each clip's brightness and warmth (mean
 R - B) where the tasks' cameras look to natural-photo levels (:func:`tone`), spread so that
 the first b clips span the natural range for every b (the benchmarks use b = 4, 8 and 60):
 version 2's clips were darker and much cooler there than natural footage, and so distracted

@@ -11,7 +11,9 @@ statistics (:func:`dcs_torchrl.videos.statistics.clip_statistics`, plus ``warmth
 R - B where the cameras look), then each statistic's correlation with the return over the
 clips. An env with b videos shows one of them per episode, so the mean over the first b
 clips' returns is about the score under ``num_videos=b``. Rows are appended to ``--out`` as
-they finish; run again, the clips it holds are skipped.
+they finish, each with the agent, videos, β_bg and episodes it was measured with; run again with
+the same ones, the clips it holds are skipped (an ``--out`` holding rows of other settings is
+refused).
 """
 from __future__ import annotations
 
@@ -59,12 +61,18 @@ def main(argv=None) -> None:
     if not 0.0 <= args.beta <= 1.0 or args.episodes < 1 or args.clips < 1:
         parser.error("--beta must be in [0, 1], --episodes and --clips >= 1")
     source = open_source(args.videos)
+    videos = repr(source) + (f" version {source.version}" if getattr(source, "version", None) else "")
+    setting = {"agent": args.agent, "videos": videos, "beta": f"{args.beta:g}", "episodes": str(args.episodes)}
     out = Path(args.out)
     rows = list(csv.DictReader(out.open())) if out.exists() else []
+    other = next((row for row in rows if {k: row.get(k) for k in setting} != setting), None)
+    if other is not None:
+        raise SystemExit(f"{out} holds rows measured with {({k: other.get(k) for k in setting})}, not {setting}: "
+                         "choose another --out.")
     done = {row["clip"] for row in rows}
     torch.set_num_threads(1)  # the policy of one env: the render dominates; more threads only contend
     agent = load_pretrained(args.agent)
-    columns = ["clip", "mean_return", *STATS]
+    columns = ["clip", "mean_return", *STATS, *setting]
     with tempfile.TemporaryDirectory() as scratch, out.open("a", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
         if not rows:
@@ -78,7 +86,8 @@ def main(argv=None) -> None:
             result = agent.evaluate(args.episodes, background_blend=args.beta, num_videos=1, dynamic=False,
                                     background_dir=os.fspath(folder))
             stats = clip_statistics([clip], frames_per_clip=16, slope=False)[0]
-            row = {"clip": name, "mean_return": result.mean, **{k: stats[k] for k in STATS[:-1]}, "warmth": warmth(clip)}
+            row = {"clip": name, "mean_return": result.mean, **{k: stats[k] for k in STATS[:-1]}, "warmth": warmth(clip),
+                   **setting}
             writer.writerow(row)
             f.flush()
             rows.append(row)

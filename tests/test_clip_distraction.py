@@ -3,6 +3,8 @@ import csv
 import sys
 from pathlib import Path
 
+import pytest
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 from clip_distraction import main  # noqa: E402
@@ -28,3 +30,6 @@ def test_each_clip_alone_and_a_rerun_skips_what_it_holds(tmp_path, capsys):
     assert float(rows[1]["mean_return"]) == alone.mean
     main(["sac_rad_cartpole_swingup", "--videos", str(videos), "--beta", "1", "--episodes", "1", "--out", str(out)])
     assert len(list(csv.DictReader(out.open()))) == 2  # nothing evaluated again, nothing appended
+    with pytest.raises(SystemExit, match="holds rows measured with .*'beta': '1'.*choose another --out"):
+        main(["sac_rad_cartpole_swingup", "--videos", str(videos), "--beta", "0.5", "--episodes", "1", "--out", str(out)])
+    assert len(list(csv.DictReader(out.open()))) == 2

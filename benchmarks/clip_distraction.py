@@ -29,15 +29,10 @@ import torch
 
 from dcs_torchrl.pretrained import load_pretrained
 from dcs_torchrl.videos import open_source
-from dcs_torchrl.videos.statistics import CLIP_NAMES, clip_statistics, looked_at
+from dcs_torchrl.videos.statistics import CLIP_NAMES, clip_statistics, warmth
 
 SIZE = 256
 STATS = tuple(n for n in CLIP_NAMES if n != "slope") + ("warmth",)
-
-
-def warmth(clip: np.ndarray) -> float:
-    part = looked_at(clip[::4]).astype(np.float64) / 255.0
-    return float(np.mean(part[..., 0] - part[..., 2]))
 
 
 def single_clip_folder(root: Path, name: str, clip: np.ndarray) -> Path:
@@ -86,7 +81,7 @@ def main(argv=None) -> None:
             result = agent.evaluate(args.episodes, background_blend=args.beta, num_videos=1, dynamic=False,
                                     background_dir=os.fspath(folder))
             stats = clip_statistics([clip], frames_per_clip=16, slope=False)[0]
-            row = {"clip": name, "mean_return": result.mean, **{k: stats[k] for k in STATS[:-1]}, "warmth": warmth(clip),
+            row = {"clip": name, "mean_return": result.mean, **{k: stats[k] for k in STATS[:-1]}, "warmth": warmth(clip[::4]),
                    **setting}
             writer.writerow(row)
             f.flush()

@@ -100,6 +100,12 @@ def frame_statistics(frames: np.ndarray, slope: bool = True) -> dict[str, float]
     return {name: total / len(frames) for name, total in sums.items()}
 
 
+def warmth(frames: np.ndarray) -> float:
+    """The mean R - B (R, G, B in [0, 1]) of :func:`looked_at` of uint8 frames [..., S, S, 3]."""
+    part = looked_at(np.asarray(frames)).astype(np.float64) / 255.0
+    return float(np.mean(part[..., 0] - part[..., 2]))
+
+
 def clip_statistics(clips, frames_per_clip: int | None = None, slope: bool = True) -> list[dict[str, float]]:
     """:func:`frame_statistics` of each clip (uint8 [T, S, S, 3]), on all its frames or
     ``frames_per_clip`` evenly spaced ones, with its ``motion`` (over all its frames) and

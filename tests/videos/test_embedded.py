@@ -103,11 +103,11 @@ def _tone_of(clip):
 
 def test_tone_reaches_its_targets_with_monotone_curves():
     clip = generate_clip(clip_seed("train", 4), 64, "meadow")
-    for brightness, warmth in ((0.3, -0.1), (0.5, 0.35), (0.42, 0.2)):  # brightest and warmest at once: R clips
+    for brightness, warm in ((0.3, -0.1), (0.5, 0.35), (0.42, 0.2)):  # brightest and warmest at once: R clips
         out = clip.copy()
-        tone(out, brightness, warmth)
+        tone(out, brightness, warm)
         got = _tone_of(out)
-        assert abs(got[0] - brightness) < 0.02 and abs(got[1] - warmth) < 0.02, (brightness, warmth, got)
+        assert abs(got[0] - brightness) < 0.02 and abs(got[1] - warm) < 0.02, (brightness, warm, got)
         for c in range(3):  # one non-decreasing curve per channel: out = table[clip]
             table = np.zeros(256, np.int64)
             table[clip[..., c].ravel()] = out[..., c].ravel()

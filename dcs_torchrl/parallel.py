@@ -30,12 +30,14 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
+from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
+from dcs_torchrl.egl_devices import egl_devices, render_device_index
+
 __all__ = ["ParallelSuiteEnv"]
 
 _STEP, _RESET, _SEED, _CLOSE = b"s", b"r", b"e", b"c"
 _OK, _FAILED = b"k", b"f"
 _POLL_S = 1.0  # how often a wait checks that the workers are alive
-_EGL_DEVICE = "MUJOCO_EGL_DEVICE_ID"
 
 
 class ParallelSuiteEnv(EnvBase):
@@ -57,12 +59,14 @@ class ParallelSuiteEnv(EnvBase):
         render_threads (int, optional): Mesa llvmpipe raster threads per worker (``LP_NUM_THREADS``;
             0: each worker renders in its own thread); ``None`` (default) keeps the environment's
             setting or Mesa's default. No effect on a GPU's EGL driver.
-        render_devices (list of int, optional): the EGL device each worker renders on
-            (``MUJOCO_EGL_DEVICE_ID``, an index into the machine's EGL devices, not a CUDA ordinal):
-            worker ``i`` on ``render_devices[i % len(render_devices)]``, so that the workers of
-            one run spread over the GPUs of a node; ``None`` (default): the device this process's
-            environment names (dm_control's default, the first). An index the machine does not
-            have fails at start with dm_control's message naming the valid range.
+        render_devices (list, optional): the GPU each worker renders on, worker ``i`` on
+            ``render_devices[i % len(render_devices)]``, so that the workers of one run spread over
+            the GPUs of a node: an EGL device index (``MUJOCO_EGL_DEVICE_ID``'s, not a CUDA
+            ordinal) or a CUDA device (``"cuda:1"``, a ``torch.device``), which is mapped to its
+            EGL device (:func:`dcs_torchrl.egl_devices.egl_device_of_cuda`, NVIDIA's EGL driver).
+            ``None`` (default): the device this process's environment names (dm_control's
+            default, the first). A device the machine does not have raises ``ValueError`` here,
+            naming the machine's EGL devices.
         mp_start_method (str): ``"spawn"`` (default; EGL contexts do not survive ``fork``).
 
     Examples:
@@ -83,9 +87,13 @@ class ParallelSuiteEnv(EnvBase):
             raise ValueError(f"render_threads must be an int >= 0 (0: render in the worker's own thread) or None, "
                              f"got {render_threads!r}.")
         devices = None if render_devices is None else list(render_devices)
-        if devices is not None and (not devices or not all(isinstance(d, int) and d >= 0 for d in devices)):
-            raise ValueError(f"render_devices must be a non-empty list of EGL device indices (ints >= 0), "
-                             f"worker i rendering on render_devices[i % len], or None; got {render_devices!r}.")
+        if devices is not None and (not devices or any(isinstance(d, int) and d < 0 for d in devices)):
+            raise ValueError(f"render_devices must be a non-empty list of EGL device indices (ints >= 0) or CUDA "
+                             f"devices ('cuda:N'), worker i rendering on render_devices[i % len], or None; "
+                             f"got {render_devices!r}.")
+        if devices is not None:
+            machine = egl_devices()
+            devices = [render_device_index(d, machine) for d in devices]
         if not callable(create_env_fn):
             raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
         super().__init__(batch_size=[num_workers], device="cpu")
@@ -213,9 +221,8 @@ class ParallelSuiteEnv(EnvBase):
             if not proc.is_alive():
                 self.close(raise_if_closed=False)
                 device = "" if self._render_devices is None else (
-                    f"; or its render device, {_EGL_DEVICE}={self._render_devices[index % len(self._render_devices)]} "
-                    "(render_devices), is not an EGL device of this machine: dm_control then stops the worker as it "
-                    "starts, naming the valid range above")
+                    f"; or it could not render on its EGL device, {_EGL_DEVICE}="
+                    f"{self._render_devices[index % len(self._render_devices)]} (render_devices)")
                 raise RuntimeError(
                     f"ParallelSuiteEnv worker {index} died (exit code {proc.exitcode}): "
                     "look for its error above; an env that cannot be built in a spawned process "

@@ -13,6 +13,7 @@ from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import ParallelSuiteEnv, make_env
+from dcs_torchrl.egl_devices import egl_devices
 
 EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
 SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True)
@@ -149,7 +150,8 @@ def test_the_package_exports_it():
 
 def test_each_worker_renders_on_its_chosen_egl_device():
     """Worker i renders on render_devices[i % len]: device 0 (the machine's first EGL device) works and
-    renders the same frames; an index the machine lacks stops that worker with an error naming the setting."""
+    renders the same frames; an index the machine lacks, or a CUDA device no EGL device is (Mesa has
+    none), is refused before any worker starts, naming the machine's EGL devices."""
     before = os.environ.get("MUJOCO_EGL_DEVICE_ID")
     env = ParallelSuiteEnv(2, FACTORY, render_devices=[0])
     assert os.environ.get("MUJOCO_EGL_DEVICE_ID") == before  # only the workers' environment
@@ -160,5 +162,8 @@ def test_each_worker_renders_on_its_chosen_egl_device():
     alone.set_seed(3)
     assert torch.equal(frames, alone.reset()["pixels"])
     alone.close()
-    with pytest.raises(RuntimeError, match=r"worker 1 died .* MUJOCO_EGL_DEVICE_ID=10000 \(render_devices\), is not an EGL device"):
+    with pytest.raises(ValueError, match=r"EGL device 10000 does not exist: this machine's EGL devices are 0 \("):
         ParallelSuiteEnv(2, FACTORY, render_devices=[0, 10_000])
+    if not any(d.cuda is not None for d in egl_devices()):
+        with pytest.raises(ValueError, match="no EGL device of this machine is CUDA device 0 .* NVIDIA's EGL driver"):
+            ParallelSuiteEnv(1, FACTORY, render_devices=["cuda:0"])

@@ -13,10 +13,17 @@ Threads: the suite's parallel env leaves this process's torch threads as they ar
 workers live: the recipes' update then ran on one of two cores, docs/agents.md, "Where the
 loop's time goes"), so whatever the user chose (``OMP_NUM_THREADS``, ``torch.set_num_threads``)
 stays in force; :func:`close_env` keeps it too, whatever env it closes.
+
+The GPU that renders (``execution.render_device``, :func:`render_device`): by default the GPU the
+policy runs on (``device=cuda:N``), where NVIDIA's EGL driver says which EGL device that is. An
+env that must render on another EGL device than this process's (``MUJOCO_EGL_DEVICE_ID``, read
+once when dm_control is imported) runs in a worker spawned with that device, so that eight runs
+on an eight-GPU node do not all render on GPU 0.
 """
 from __future__ import annotations
 
 import functools
+import logging
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -24,10 +31,15 @@ import torch
 from omegaconf import OmegaConf
 from torchrl.envs import CatFrames, Compose, EnvBase, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
+from dcs_torchrl.egl_devices import egl_device_of_cuda, process_render_device, render_device_index
 from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings, make_env, resolve_settings
 from dcs_torchrl.parallel import ParallelSuiteEnv
 
-__all__ = ["close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings"]
+__all__ = ["close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings",
+           "render_device"]
+
+log = logging.getLogger(__name__)
+
 
 def env_options(section) -> dict:
     """The make_env settings of a recipe's ``env`` / ``eval_env`` config section (all its keys
@@ -79,6 +91,26 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     return env
 
 
+def render_device(cfg) -> int | None:
+    """The EGL device a recipe's envs render on, from ``execution.render_device``: an EGL device
+    index as given (checked against the machine's); ``auto`` (default): with ``device=cuda[:N]``
+    the EGL device of that GPU where NVIDIA's EGL driver names one, else ``None`` (this process's
+    device: ``MUJOCO_EGL_DEVICE_ID`` or dm_control's default, the first), as on the CPU."""
+    choice = OmegaConf.select(cfg, "execution.render_device", default="auto")
+    if choice != "auto":
+        if isinstance(choice, bool) or not isinstance(choice, int) or choice < 0:
+            raise ValueError(f"execution.render_device must be auto or an EGL device index (an int >= 0), got {choice!r}.")
+        return render_device_index(choice)
+    device = torch.device(OmegaConf.select(cfg, "device", default="cpu"))
+    if device.type != "cuda":
+        return None
+    try:
+        return egl_device_of_cuda(device)
+    except (ValueError, RuntimeError) as error:  # Mesa, no NVIDIA EGL: render where this process renders
+        log.info(f"execution.render_device=auto: rendering on this process's EGL device ({error})")
+        return None
+
+
 def make_pixel_env(
     settings: EnvSettings,
     *,
@@ -87,18 +119,25 @@ def make_pixel_env(
     frame_stack: int = 3,
     image_size: int = 84,
     render_profile: str = "default",
+    render_device: int | None = None,
 ) -> TransformedEnv:
     """``num_workers`` suite envs, batch size ``[num_workers]``, seeded from ``seed`` (the first
     worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
 
     One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several
     run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (spawned workers, this process sleeping
-    while they step).
+    while they step). ``render_device`` (an EGL device index, :func:`render_device`): the
+    device every env renders on; one env that must render on another device than this
+    process's runs in a worker too.
     """
     if num_workers < 1:
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")
     make = functools.partial(pixel_env, settings, frame_stack=frame_stack, image_size=image_size, render_profile=render_profile)
-    batched = SerialEnv(1, make) if num_workers == 1 else ParallelSuiteEnv(num_workers, make)
+    elsewhere = render_device is not None and render_device != process_render_device()
+    if num_workers == 1 and not elsewhere:
+        batched = SerialEnv(1, make)
+    else:
+        batched = ParallelSuiteEnv(num_workers, make, render_devices=None if render_device is None else [render_device])
     env = TransformedEnv(batched, RewardSum())
     env.set_seed(seed)
     return env

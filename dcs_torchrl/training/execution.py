@@ -22,6 +22,9 @@ setting                         what it does
                                 part of a run's identity.
 ``replay_buffer.device``        ``auto`` | ``cpu`` | ``cuda``: where the replay's frames live
                                 (:func:`replay_device`).
+``execution.render_device``     ``auto`` | an EGL device index: the GPU the envs render on
+                                (``auto``: the policy's CUDA GPU where NVIDIA's EGL driver
+                                maps it; :func:`dcs_torchrl.training.envs.render_device`).
 ==============================  ===============================================================
 
 Everything but ``precision.tf32`` runs the same math (summed in other orders at most): a run
@@ -122,12 +125,14 @@ class ExecutionOptions:
             kwargs["capturable"] = True
         return kwargs
 
-    def recorded(self, config: Mapping, replay: torch.device | None = None) -> dict:
-        """``config`` (a run's resolved config, a dict) with the values that ran in place of ``auto``."""
+    def recorded(self, config: Mapping, replay: torch.device | None = None, render: int | None = None) -> dict:
+        """``config`` (a run's resolved config, a dict) with the values that ran in place of ``auto``
+        (``render``: the envs' EGL device, ``None`` recorded as ``"process"``: this process's)."""
         config = {key: dict(value) if isinstance(value, Mapping) else value for key, value in config.items()}
         config["optim"] = {**config.get("optim", {}), "fused": self.fused}
         config["execution"] = {**config.get("execution", {}), "compile": self.compile, "cudagraph": self.cudagraph,
-                               "cudnn_benchmark": self.cudnn_benchmark}
+                               "cudnn_benchmark": self.cudnn_benchmark,
+                               "render_device": "process" if render is None else render}
         config["precision"] = {**config.get("precision", {}), "tf32": self.tf32}
         if replay is not None:
             config["replay_buffer"] = {**config.get("replay_buffer", {}), "device": str(replay)}

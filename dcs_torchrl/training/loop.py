@@ -32,7 +32,7 @@ from dcs_torchrl.evaluation import evaluate
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options, recipe_settings
+from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options, recipe_settings, render_device
 from dcs_torchrl.training.execution import ExecutionOptions, apply_math_settings, check_execution, on_device, replay_device
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, RunningMeans, read_metrics
@@ -101,6 +101,7 @@ def _check_config(cfg: DictConfig) -> None:
     if cfg.device != "cpu" and not torch.cuda.is_available():
         raise ValueError(f"device={cfg.device!r} but CUDA is not available: use device=cpu.")
     check_execution(cfg)
+    render_device(cfg)  # an EGL device this machine lacks is refused here
 
 
 def acting_on(policy, device: str):
@@ -159,6 +160,8 @@ class Workspace:
         random.seed(cfg.seed)
 
         pixels = pixel_options(cfg.pixels)
+        self.render_device = render_device(cfg)
+        pixels["render_device"] = self.render_device
         self.env = self.eval_env = None
         self.env = make_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
         try:
@@ -326,7 +329,7 @@ class Workspace:
         plot_learning_curve(read_metrics(self.logger.path), self.run.path / "learning_curve.png",
                             title=f"{self.method} {cfg.env.domain} {cfg.env.task} ({_scene_label(self.train_settings)}, seed {cfg.seed})")
         return RunResults.from_config(
-            self.options.recorded(self.run.config, self.replay_device),  # the values that ran for each `auto`
+            self.options.recorded(self.run.config, self.replay_device, self.render_device),  # what ran for each `auto`
             experiment=cfg.experiment, steps=frames, wall_time=time.time() - self.start_time,
             train_env=self.train_settings.as_dict(), eval_env=self.eval_settings.as_dict(),
             sweep=self.run.config.get("sweep"), eval=result.to_dict(),

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from omegaconf import OmegaConf
 from tensordict import TensorDict
 from test_execution import OBS, SPEC, batch, config, make_agent
 from test_replay import C, H, S, episodes
@@ -206,3 +207,27 @@ def test_cuda_settings_without_cuda_name_the_fix():
 
     with pytest.raises(ValueError, match="CUDA is not available: use device=cpu"):
         _check_config(config("sac", "device=cuda"))
+
+
+@needs_cuda
+def test_each_visible_gpu_has_the_egl_device_the_recipes_render_on():
+    """With NVIDIA's EGL driver every visible CUDA device is one EGL device (``EGL_NV_device_cuda``),
+    ``execution.render_device=auto`` picks the policy's, and an env told to render there gives
+    the frames an env rendering on this process's device gives (the same GPU model, the same driver)."""
+    from dcs_torchrl.egl_devices import egl_device_of_cuda, egl_devices
+    from dcs_torchrl.envs import resolve_settings
+    from dcs_torchrl.training.envs import make_pixel_env, render_device
+
+    devices = egl_devices()
+    indices = [egl_device_of_cuda(k, devices) for k in range(torch.cuda.device_count())]
+    assert len(set(indices)) == len(indices)
+    assert render_device(OmegaConf.merge(config("sac"), {"device": "cuda:0"})) == indices[0]
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium")
+    frames = []
+    for device in (None, indices[-1]):
+        env = make_pixel_env(settings, num_workers=1, seed=1, frame_stack=3, image_size=64, render_device=device)
+        frames.append(env.reset()["pixels"])
+        env.close()
+    assert frames[0].shape == frames[1].shape
+    if torch.cuda.device_count() == 1:
+        assert torch.equal(*frames)

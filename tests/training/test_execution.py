@@ -70,7 +70,7 @@ def test_auto_resolves_for_cuda_and_old_configs_take_the_defaults():
     recorded = ExecutionOptions.from_config(OmegaConf.to_container(config())).recorded(
         OmegaConf.to_container(config()), torch.device("cpu"))
     assert recorded["optim"] == {"lr": 0.001, "fused": False}
-    assert recorded["execution"] == {"compile": False, "cudagraph": False, "cudnn_benchmark": False}
+    assert recorded["execution"] == {"compile": False, "cudagraph": False, "cudnn_benchmark": False, "render_device": "process"}
     assert recorded["replay_buffer"]["device"] == "cpu" and recorded["precision"] == {"tf32": False}
 
 
@@ -303,3 +303,23 @@ def test_the_collector_takes_a_device_policy_as_it_is():
         env.close()
         actions.append(data["action"])
     assert torch.equal(*actions)
+
+
+def test_the_render_device_is_the_policys_gpu_where_an_egl_device_is_that_gpu():
+    """``execution.render_device``: ``auto`` on the CPU leaves rendering to this process's device;
+    an EGL index is taken when the machine has it; on CUDA ``auto`` is that GPU's EGL device, or
+    this process's where no EGL device is that GPU (Mesa); a bad value is refused naming the fix."""
+    from dcs_torchrl.egl_devices import egl_device_of_cuda, egl_devices
+    from dcs_torchrl.training.envs import render_device
+
+    assert render_device(config("sac")) is None
+    assert render_device(config("sac", "execution.render_device=0")) == 0
+    cuda = OmegaConf.merge(config("sac"), {"device": "cuda:0"})
+    if any(d.cuda == 0 for d in egl_devices()):
+        assert render_device(cuda) == egl_device_of_cuda("cuda:0")
+    else:
+        assert render_device(cuda) is None
+    with pytest.raises(ValueError, match=r"EGL device 99 does not exist: this machine's EGL devices are"):
+        render_device(config("sac", "execution.render_device=99"))
+    with pytest.raises(ValueError, match="execution.render_device must be auto or an EGL device index"):
+        render_device(config("sac", "execution.render_device=gpu"))

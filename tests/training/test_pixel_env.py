@@ -59,3 +59,33 @@ def test_the_batched_recipe_env_stacks_each_sub_envs_frames_from_its_own_reset()
     assert all(torch.equal(restarted[3 * i : 3 * i + 3], restarted[:3]) for i in range(STACK))
     assert not torch.equal(restarted[:3], rollout["pixels"][0, 3, -3:])  # a new episode, a new frame
     env.close()
+
+
+def test_an_env_that_renders_on_another_egl_device_than_this_process_runs_in_a_worker_on_it(monkeypatch):
+    """``render_device`` other than this process's device: even one env runs in a worker spawned on
+    that device (here device 0, with this process pretending to render on 1), with the same frames."""
+    from torchrl.envs import SerialEnv
+
+    from dcs_torchrl import ParallelSuiteEnv
+
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True)
+    here = make_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
+    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")  # what this process "renders on"; the worker is told 0
+    there = make_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
+    try:
+        assert isinstance(here.base_env, SerialEnv)  # device 0 was this process's: no worker
+        assert isinstance(there.base_env, ParallelSuiteEnv)
+        torch.manual_seed(0)
+        actions = [here.action_spec.rand() for _ in range(STEPS)]
+        frames = []
+        for env in (here, there):
+            td = env.reset()
+            stacks = [td["pixels"]]
+            for action in actions:
+                td = env.step(td.set("action", action))["next"]
+                stacks.append(td["pixels"])
+            frames.append(torch.stack(stacks))
+        assert torch.equal(*frames)
+    finally:
+        here.close()
+        there.close()

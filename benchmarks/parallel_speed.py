@@ -10,6 +10,9 @@ Paths (cartpole swingup by default, default render profile, seeded random action
 - ``ParallelEnv, pipes``: the same with ``use_buffers=False`` (results come back through the
   pipes, and this process sleeps in ``select`` until they do);
 - ``ParallelSuiteEnv``: the suite's parallel env (:class:`dcs_torchrl.ParallelSuiteEnv`);
+- ``ParallelSuiteEnv, unlocked``: the same workers, each sent its next action as soon as it is
+  done instead of when both are (what lock-step costs; not an API: it is driven through the env's
+  pipes here, one env's observation at a time, and its episodes' order depends on timing);
 - ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling.
 
 Every path is built once, then stepped in interleaved rounds (each round in the other order to
@@ -25,6 +28,7 @@ import multiprocessing as mp
 import os
 import statistics
 import time
+from multiprocessing.connection import wait
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -32,6 +36,7 @@ import torch  # noqa: E402
 from torchrl.envs import ParallelEnv  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
+from dcs_torchrl import parallel  # noqa: E402
 from machine import cpu_model  # noqa: E402
 
 
@@ -103,6 +108,48 @@ class Stepped:
         self.env.close()
 
 
+class Unlocked:
+    """A :class:`~dcs_torchrl.ParallelSuiteEnv` whose workers each step as soon as they are done
+    (random actions; a done episode resets at once): a round is ``n * steps`` single-env steps."""
+
+    def __init__(self, factory, n: int, seed: int):
+        self.env = dcs.ParallelSuiteEnv(n, factory)
+        self.env.set_seed(seed)
+        self.env.reset()
+        self.batch, self.generator = n, torch.Generator().manual_seed(seed)
+        spec = self.env.action_spec[0]
+        self.low, self.high = spec.low, spec.high
+        self.worker = {pipe: i for i, pipe in enumerate(self.env._pipes)}
+
+    def _step(self, i: int) -> None:
+        action = torch.rand(self.low.shape, generator=self.generator) * (self.high - self.low) + self.low
+        self.env._buffers["action"][i]["action"].copy_(action)
+        self.env._pipes[i].send_bytes(parallel._STEP)
+
+    def run(self, steps: int):
+        env, left = self.env, self.batch * steps
+        wall, cpu = time.perf_counter(), time.process_time()
+        for i in range(self.batch):
+            self._step(i)
+        while left > 0:
+            for pipe in wait(env._pipes):
+                i = self.worker[pipe]
+                env._answer(i)
+                out = env._buffers["next"][i]
+                out["pixels"].numpy().copy()  # what a consumer of the observation copies
+                if bool(out["done"].any()):
+                    env._command(parallel._RESET, [i])
+                left -= 1
+                self._step(i)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        for i in range(self.batch):  # the steps still running are neither counted nor timed
+            env._answer(i)
+        return wall, cpu
+
+    def close(self):
+        self.env.close()
+
+
 def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
     suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(dcs.ParallelSuiteEnv, render_threads=k)
              for k in render_threads}
@@ -111,6 +158,7 @@ def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
         "ParallelEnv": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn"), seed),
         "ParallelEnv, pipes": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn", use_buffers=False), seed),
         "ParallelSuiteEnv": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory), seed),
+        "ParallelSuiteEnv, unlocked": lambda: Unlocked(factory, n, seed),
         **{name: functools.partial(lambda make: Stepped(make(n, factory), seed), make) for name, make in suite.items()},
         f"{n} processes": lambda: Processes(factory, n, seed),
     }

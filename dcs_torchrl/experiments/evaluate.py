@@ -6,7 +6,9 @@ evaluation resolves its env as the training env plus its ``eval_env`` overrides,
 deterministic policy for ``eval.episodes`` episodes with the seeds of the training's final
 evaluation, and writes a ``results.json`` (``docs/results_format.md``) into its own directory.
 An evaluation directory belongs to one trained run and one setting (``run_config.json``, as
-for training runs): a finished evaluation is skipped, another one is refused.
+for training runs): a finished evaluation is skipped, another one is refused. A finished one is
+evaluated again when it no longer holds (:func:`stale_reason`: another checkpoint of the run, other
+stand-in videos), its old ``results.json`` kept beside it as ``results.stale-<k>.json``.
 
 From the command line (Hydra; config ``dcs_torchrl/training/conf/evaluate.yaml``)::
 
@@ -23,6 +25,7 @@ point for a clone; the experiment sweeps call :func:`evaluate_checkpoint` direct
 from __future__ import annotations
 
 import json
+import logging
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -33,10 +36,12 @@ from omegaconf import DictConfig, OmegaConf
 
 from dcs_torchrl.experiments.grid import Evaluation
 from dcs_torchrl.methods import agent_class
-from dcs_torchrl.results import RunResults
+from dcs_torchrl.results import RunResults, with_videos_version
 from dcs_torchrl.training import conf as _conf  # noqa: F401  (importing it registers the env / eval_env groups)
 
-__all__ = ["SETTABLE", "evaluate_checkpoint", "evaluate_from_config", "main"]
+__all__ = ["SETTABLE", "evaluate_checkpoint", "evaluate_from_config", "main", "stale_reason"]
+
+log = logging.getLogger(__name__)
 
 #: What the command line may set; the rest of the config is the trained run's.
 SETTABLE = ("train_dir", "eval_env.", "eval.episodes", "eval.num_workers", "device", "experiment", "sweep", "progress", "hydra.")
@@ -51,6 +56,35 @@ def _trained_results(train_dir: Path) -> dict:
         raise FileNotFoundError(
             f"{train_dir} has no results.json: train this run first (its final checkpoint is evaluated)."
         ) from None
+
+
+def stale_reason(done: Mapping, digest: str, eval_env: Mapping) -> str | None:
+    """Why a finished evaluation's ``results.json`` (``done``) no longer holds for the agent whose
+    checkpoint has SHA-256 ``digest`` in ``eval_env`` (resolved settings), or ``None`` if it holds.
+
+    It does not hold when it evaluated another checkpoint (an agent retrained under the same run
+    directory) or showed other stand-in videos than today's (``embedded_videos``; a record that
+    shows them without a version was made on version 1). A record without a checkpoint digest (made
+    before digests were recorded) is taken as this checkpoint's: nothing says otherwise.
+    """
+    stored = done.get("config", {}).get("evaluated_from", {}).get("checkpoint_sha256")
+    if stored is not None and stored != digest:
+        return f"it evaluated another checkpoint (SHA-256 {stored[:12]}…, now {digest[:12]}…)"
+    today = with_videos_version(eval_env).get("embedded_videos")  # None: no stand-ins shown
+    if today is not None:
+        shown = done.get("eval_env", {}).get("embedded_videos", 1)
+        if shown != today:
+            return f"it showed stand-in videos version {shown}, today's are version {today}"
+    return None
+
+
+def _set_aside(path: Path) -> Path:
+    """Renames ``path`` to the first free ``<stem>.stale-<k><suffix>`` beside it (nothing is lost)."""
+    k = 1
+    while (kept := path.with_name(f"{path.stem}.stale-{k}{path.suffix}")).exists():
+        k += 1
+    path.rename(kept)
+    return kept
 
 
 def evaluate_checkpoint(
@@ -78,7 +112,7 @@ def evaluate_checkpoint(
     """
     import torch
 
-    from dcs_torchrl.pretrained import agent_directory, evaluate_settings
+    from dcs_torchrl.pretrained import agent_directory, checkpoint_sha256, evaluate_settings
     from dcs_torchrl.training import RunDirectory
     from dcs_torchrl.training.envs import env_options, env_settings
 
@@ -91,6 +125,7 @@ def evaluate_checkpoint(
     device = str(settings.get("device", cfg.device))
     train_options = env_options(cfg.env)
 
+    digest = checkpoint_sha256(train_dir)
     results: list[dict | None] = []
     todo = []
     for out_dir, evaluation in targets:
@@ -98,7 +133,11 @@ def evaluate_checkpoint(
         run = RunDirectory(out_dir, {"trained": os.path.relpath(train_dir, out_dir), "eval_env": eval_settings.as_dict()})
         run.claim()
         done = run.finished(trained["steps"], episodes)
-        if done is not None:
+        reason = None if done is None else stale_reason(done, digest, eval_settings.as_dict())
+        if reason is not None:
+            kept = _set_aside(run.results_path)
+            log.warning(f"{run.path}: evaluated again, {reason}; the old results are kept in {kept.name}")
+        if done is not None and reason is None:
             results.append(done)
         else:
             results.append(None)
@@ -118,7 +157,8 @@ def evaluate_checkpoint(
             experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,
             eval_env={**config["eval_env"], **evaluation.eval_env},
             eval={**config["eval"], "episodes": episodes, "num_workers": workers},
-            evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": trained["steps"]},
+            evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": trained["steps"],
+                            "checkpoint_sha256": digest},
         )
         results[index] = RunResults.from_config(
             config, experiment=evaluation.experiment, steps=trained["steps"], wall_time=seconds,

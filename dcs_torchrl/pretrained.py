@@ -188,14 +188,16 @@ class Pretrained:
         finally:
             close_env(env)
 
-    def make_env(self, *, seed: int | None = None, **settings):
+    def make_env(self, *, seed: int | None = None, render_profile: str | None = None, **settings):
         """A suite env on the agent's task with its pixel handling; ``settings`` are make_env's
         distraction settings (``benchmark``, ``dynamic``, ``camera_scale``, ``color_scale``,
-        ``num_videos``, ``background_blend``, ``background_dir``, ...), over the training env's."""
+        ``num_videos``, ``background_blend``, ``background_dir``, ...), over the training env's;
+        ``render_profile``: another render profile than the training run's (``"default"``, ``"fast"``)."""
         from dcs_torchrl.training.envs import pixel_env, pixel_options
 
         cfg = self._cfg
-        return pixel_env(agent_env_settings(cfg, settings), seed=seed, **pixel_options(cfg.pixels))
+        pixels = pixel_options(cfg.pixels) | ({} if render_profile is None else {"render_profile": render_profile})
+        return pixel_env(agent_env_settings(cfg, settings), seed=seed, **pixels)
 
 
 def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False) -> Pretrained:

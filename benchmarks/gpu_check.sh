@@ -4,6 +4,7 @@
 #
 #   bash benchmarks/gpu_check.sh quick    # the GPU, its EGL devices, the CUDA tests, the renderer scores (~3 min)
 #   bash benchmarks/gpu_check.sh speed    # benchmarks/gpu_speed.py, its full table (~6 min)
+#   bash benchmarks/gpu_check.sh learn    # docs/training.md's short run (16K frames) with device=cuda (~2 min)
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
 #   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -x -n 16)
 #
@@ -30,6 +31,12 @@ case $stage in
   speed)
     step gpu_speed 540 python3 benchmarks/gpu_speed.py
     ;;
+  learn)
+    step learn_cuda 480 python3 recipes/sac/sac.py algo.aug=rad env.benchmark=easy total_frames=16000 \
+      algo.batch_size=128 eval.interval=4000 eval.periodic_episodes=5 eval.episodes=10 checkpoint.interval=4000 \
+      device=cuda progress=false hydra.run.dir=/tmp/gpu_check_learn
+    cp /tmp/gpu_check_learn/results.json /tmp/gpu_check_learn/metrics.csv "$OUT/"
+    ;;
   parallel)
     step parallel_speed 540 python3 benchmarks/parallel_speed.py --workers 16 --steps 100 --rounds 3 \
       --only "one env" ParallelEnv ParallelSuiteEnv "ParallelSuiteEnv, unlocked" "16 processes"
@@ -38,7 +45,7 @@ case $stage in
     step suite 560 python3 -m pytest -q -x -p no:cacheprovider -n 16
     ;;
   *)
-    echo "unknown stage $stage: quick, speed, parallel or suite" >&2
+    echo "unknown stage $stage: quick, speed, learn, parallel or suite" >&2
     exit 2
     ;;
 esac

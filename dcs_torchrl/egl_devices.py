@@ -25,11 +25,14 @@ import ctypes
 import ctypes.util
 import functools
 import os
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import torch
 
-__all__ = ["EGLDevice", "egl_device_of_cuda", "egl_devices", "process_render_device", "render_device_index"]
+__all__ = ["EGLDevice", "egl_device_environment", "egl_device_of_cuda", "egl_devices", "process_render_device",
+           "render_device_index", "render_device_indices"]
 
 #: The environment variable dm_control reads, once per process, for the EGL device it renders on.
 EGL_DEVICE_VARIABLE = "MUJOCO_EGL_DEVICE_ID"
@@ -165,3 +168,38 @@ def process_render_device() -> int:
         return 0 if value is None else int(value)
     except ValueError:
         raise ValueError(f"{EGL_DEVICE_VARIABLE}={value!r} is not an EGL device index (an int >= 0).") from None
+
+
+def render_device_indices(render_devices: Sequence[int | str | torch.device] | None) -> list[int] | None:
+    """Worker ``i``'s EGL device is ``result[i % len(result)]``: each of ``render_devices`` (EGL
+    indices or CUDA devices, :func:`render_device_index`) checked against the machine's devices
+    before any worker starts; ``None`` stays ``None`` (every worker on this process's device)."""
+    if render_devices is None:
+        return None
+    devices = [render_devices] if isinstance(render_devices, (int, str, torch.device)) else list(render_devices)
+    if not devices or any(isinstance(d, int) and not isinstance(d, bool) and d < 0 for d in devices):
+        raise ValueError(f"render_devices must be a non-empty list of EGL device indices (ints >= 0) or CUDA "
+                         f"devices ('cuda:N'), worker i rendering on render_devices[i % len], or None; "
+                         f"got {render_devices!r}.")
+    machine = egl_devices()
+    return [render_device_index(d, machine) for d in devices]
+
+
+@contextmanager
+def egl_device_environment(device: int | None) -> Iterator[None]:
+    """``MUJOCO_EGL_DEVICE_ID=device`` in this process's environment for the duration, so that a
+    process spawned meanwhile renders on that device: dm_control reads the variable once, when a
+    process first imports its EGL renderer, before any code of a spawned worker runs. ``None``:
+    the environment is left as it is."""
+    if device is None:
+        yield
+        return
+    before = os.environ.get(EGL_DEVICE_VARIABLE)
+    os.environ[EGL_DEVICE_VARIABLE] = str(device)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[EGL_DEVICE_VARIABLE]
+        else:
+            os.environ[EGL_DEVICE_VARIABLE] = before

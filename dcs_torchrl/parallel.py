@@ -22,7 +22,6 @@ import multiprocessing as mp
 import os
 import traceback
 from collections.abc import Callable, Sequence
-from contextlib import contextmanager
 from multiprocessing.connection import Connection, wait
 
 import torch
@@ -31,7 +30,7 @@ from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
-from dcs_torchrl.egl_devices import egl_devices, render_device_index
+from dcs_torchrl.egl_devices import egl_device_environment, render_device_indices
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -86,14 +85,7 @@ class ParallelSuiteEnv(EnvBase):
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
             raise ValueError(f"render_threads must be an int >= 0 (0: render in the worker's own thread) or None, "
                              f"got {render_threads!r}.")
-        devices = None if render_devices is None else list(render_devices)
-        if devices is not None and (not devices or any(isinstance(d, int) and d < 0 for d in devices)):
-            raise ValueError(f"render_devices must be a non-empty list of EGL device indices (ints >= 0) or CUDA "
-                             f"devices ('cuda:N'), worker i rendering on render_devices[i % len], or None; "
-                             f"got {render_devices!r}.")
-        if devices is not None:
-            machine = egl_devices()
-            devices = [render_device_index(d, machine) for d in devices]
+        devices = render_device_indices(render_devices)
         if not callable(create_env_fn):
             raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
         super().__init__(batch_size=[num_workers], device="cpu")
@@ -108,7 +100,7 @@ class ParallelSuiteEnv(EnvBase):
                 here, there = ctx.Pipe()
                 proc = ctx.Process(target=_work, args=(create_env_fn, there, index, render_threads), daemon=True,
                                    name=f"ParallelSuiteEnv-{index}")
-                with _egl_device(None if devices is None else devices[index % len(devices)]):
+                with egl_device_environment(None if devices is None else devices[index % len(devices)]):
                     proc.start()
                 there.close()
                 self._pipes.append(here)
@@ -244,24 +236,6 @@ def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
     return TensorDict(
         {"action": env.full_action_spec.zero(), "next": step_spec.zero()}, batch_size=env.batch_size, device=env.device
     ).share_memory_()
-
-
-@contextmanager
-def _egl_device(device: int | None):
-    """``MUJOCO_EGL_DEVICE_ID=device`` in the environment a worker is spawned with: dm_control reads
-    it once, when a process first imports its EGL renderer (before any code of the worker runs)."""
-    if device is None:
-        yield
-        return
-    before = os.environ.get(_EGL_DEVICE)
-    os.environ[_EGL_DEVICE] = str(device)
-    try:
-        yield
-    finally:
-        if before is None:
-            del os.environ[_EGL_DEVICE]
-        else:
-            os.environ[_EGL_DEVICE] = before
 
 
 def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, render_threads: int | None) -> None:

@@ -26,7 +26,8 @@ import os
 import shutil
 import threading
 import time
-from collections.abc import Hashable, Iterator, Mapping
+from collections import Counter
+from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -221,8 +222,8 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
 
 
 def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
-                      processes: int = 1, workers: int = 1, device: str = "cpu",
-                      final: bool = False) -> Iterator[tuple[Hashable, dict, float]]:
+                      processes: int = 1, workers: int = 1, device: str = "cpu", final: bool = False,
+                      render_devices: Sequence[int | str] | None = None) -> Iterator[tuple[Hashable, dict, float]]:
     """:meth:`Pretrained.evaluate` of ``agent`` under each of several make_env ``settings``, in
     ``processes`` processes at once; yields ``(key, EvalResult.to_dict(), seconds)`` as each one
     finishes.
@@ -232,7 +233,7 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
     of a setting's episodes, as there). Processes get an equal share of the cores for torch and for
     Mesa's llvmpipe render threads (``LP_NUM_THREADS``, read when the first GL context is made;
     without it their renders contend: docs/performance.md) and end when this process is killed.
-    ``processes=1`` evaluates here, one setting after another.
+    ``processes=1`` evaluates here, one setting after another, unless it must render elsewhere.
 
     Args:
         agent: a finished run, an exported agent or a shipped agent's name.
@@ -241,25 +242,62 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
         processes: settings evaluated at once.
         workers: :meth:`Pretrained.evaluate`'s env workers per setting (1: one env).
         device, final: as :func:`load_pretrained`.
+        render_devices: the GPU each process renders on, process ``i`` on
+            ``render_devices[i % len]``: EGL device indices or CUDA devices (``"cuda:1"``), as
+            :class:`~dcs_torchrl.ParallelSuiteEnv`'s, checked before anything starts; ``None``
+            (default): this process's device. A process's env workers render on its device.
     """
+    from dcs_torchrl.egl_devices import process_render_device, render_device_indices
+
     if processes < 1:
         raise ValueError(f"processes must be >= 1, got {processes}.")
-    if processes == 1 or len(settings) < 2:
+    devices = render_device_indices(render_devices)
+    if devices is not None and set(devices) == {process_render_device()}:
+        devices = None  # all on this process's device: nothing to spawn for
+    if devices is None and (processes == 1 or len(settings) < 2):
         loaded = load_pretrained(agent, device, final=final) if settings else None
         for key, overrides in settings.items():
             yield key, *_timed_evaluation(loaded, overrides, episodes, workers)
         return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    yield from _evaluate_in_processes(agent, settings, episodes, min(processes, max(1, len(settings))), workers,
+                                      device, final, devices)
 
-    processes = min(processes, len(settings))
+
+def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: int, processes: int, workers: int,
+                           device: str, final: bool, devices: list[int] | None):
+    """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
+    spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a setting whenever one of its
+    processes is free."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from contextlib import ExitStack
+
+    from dcs_torchrl.egl_devices import egl_device_environment
+
     threads = max(1, (os.cpu_count() or 1) // processes)
-    with ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
-                             initargs=(os.fspath(agent), device, final, threads, os.getpid())) as pool:
-        futures = {pool.submit(_evaluate_in_worker, overrides, episodes, workers): key
-                   for key, overrides in settings.items()}
-        for future in as_completed(futures):
-            yield futures[future], *future.result()
+    share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
+    todo = iter(settings.items())
+    running = {}
+    with ExitStack() as stack:
+        def feed(pool, render):
+            item = next(todo, None)
+            if item is not None:  # a process spawned by this submit renders on the pool's device
+                with egl_device_environment(render):
+                    running[pool.submit(_evaluate_in_worker, item[1], episodes, workers)] = item[0], pool, render
+
+        for render, count in share.items():
+            pool = stack.enter_context(ProcessPoolExecutor(
+                count, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
+                initargs=(os.fspath(agent), device, final, threads, os.getpid(), render)))
+            for _ in range(count):
+                feed(pool, render)
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                key, pool, render = running.pop(future)
+                result = future.result()
+                feed(pool, render)
+                yield key, *result
 
 
 _WORKER_AGENT = None
@@ -272,7 +310,12 @@ def _exit_with(parent: int) -> None:
     os._exit(1)
 
 
-def _start_worker(agent: str, device: str, final: bool, threads: int, parent: int) -> None:
+def _start_worker(agent: str, device: str, final: bool, threads: int, parent: int, render: int | None) -> None:
+    from dcs_torchrl.egl_devices import process_render_device
+
+    if render is not None and process_render_device() != render:  # spawned outside egl_device_environment
+        raise RuntimeError(f"an evaluation process meant to render on EGL device {render} was started on "
+                           f"{process_render_device()}: it must be spawned with MUJOCO_EGL_DEVICE_ID={render}.")
     os.environ.setdefault("LP_NUM_THREADS", str(threads))  # a user's setting is kept
     threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
     import torch

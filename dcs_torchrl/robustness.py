@@ -267,7 +267,7 @@ def _background(background_dir: str | os.PathLike | None, num_videos: int | None
 
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
                 workers: int = 1, background_dir: str | os.PathLike | None = None, num_videos: int | None = None,
-                progress: bool = True) -> list[dict]:
+                progress: bool = True, render_devices: Sequence[int | str] | None = None) -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
     Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
@@ -277,19 +277,23 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     stand-ins' version, or a folder's path and a digest of its files' names and sizes). Other
     points are evaluated (stored ones that do not match stay, for a run that matches them).
     ``out`` holding another agent's points, or this agent's from another checkpoint, is refused
-    before anything is evaluated. ``workers`` processes each evaluate whole points. The background
+    before anything is evaluated. ``workers`` processes each evaluate whole points, worker ``i``
+    rendering on ``render_devices[i % len]`` (EGL indices or ``"cuda:N"``; ``None``: this
+    process's device; :func:`dcs_torchrl.pretrained.evaluate_settings`). The background
     axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
     folder that holds fewer).
 
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
     """
+    from dcs_torchrl.egl_devices import render_device_indices
     from dcs_torchrl.pretrained import _results, agent_directory, evaluate_settings
 
     directory = agent_directory(agent)
     results = _results(directory)
     if episodes < 1 or workers < 1:
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
+    render_device_indices(render_devices)  # a device this machine lacks is refused before anything is written
     background_dir, num_videos = _background(background_dir, num_videos)
     keys = [p.key(background_dir, num_videos) for p in points]
     settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
@@ -300,7 +304,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     done = _stored_points(stored, identity, out)
     todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
     bar = _progress(list(todo), progress)
-    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers):
+    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=render_devices):
         point_id = _point_id(identities[key])
         done[point_id] = result
         write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})
@@ -355,6 +359,16 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
     return paths
 
 
+def _render_device(text: str) -> int | str:
+    """``--render-devices``' items: an EGL device index (``2``) or a CUDA device (``cuda:1``)."""
+    if text.isdigit():
+        return int(text)
+    if text == "cuda" or (text.startswith("cuda:") and text[5:].isdigit()):
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r} is not a render device: give an EGL device index (0, 1, ...) or a "
+                                     "CUDA device (cuda:0, cuda:1, ...).")
+
+
 def main(argv=None) -> dict[str, Path]:
     parser = argparse.ArgumentParser(
         prog="python -m dcs_torchrl.robustness",
@@ -380,6 +394,9 @@ def main(argv=None) -> dict[str, Path]:
                         help="the background axis' b: its first B training videos (default: 60, the paper's, "
                              "or all of a --background-dir that holds fewer)")
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes, a point each")
+    parser.add_argument("--render-devices", nargs="+", default=None, type=_render_device, metavar="DEVICE",
+                        help="the GPUs the workers render on, worker i on the (i mod n)-th: EGL device indices or "
+                             "cuda:N (default: this process's, MUJOCO_EGL_DEVICE_ID or the first)")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
     parser.add_argument("--no-progress", action="store_true")
@@ -389,7 +406,8 @@ def main(argv=None) -> dict[str, Path]:
     points = sweep_points(args.axes, args.intensities, args.setting, blend)
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
-                       background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress)
+                       background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress,
+                       render_devices=args.render_devices)
     videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
     videos += f", b = {args.num_videos} videos" if args.num_videos is not None else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "

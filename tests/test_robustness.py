@@ -243,3 +243,31 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
 
     monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", counted)
     assert sweep(tmp_path / "resumed", points) == whole and len(resumed) == 1
+
+
+def test_workers_render_on_the_chosen_device_with_the_returns_of_this_process(tmp_path, monkeypatch):
+    """--render-devices: the workers are spawned on the chosen EGL device (here 0, with this process
+    pretending to render on 1, so that nothing may run here) and give the returns of an evaluation here."""
+    points = [Point("camera", 0.3, True), Point("color", 0.5, False), Point("background", 0.2, False)]
+    agent = load_pretrained(AGENT)
+    alone = [list(agent.evaluate(1, **p.overrides()).returns) for p in points]
+    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")
+    rows = sweep_agent(AGENT, points, tmp_path, episodes=1, workers=2, progress=False, render_devices=[0])
+    assert [row["returns"] for row in rows] == alone  # three points fed to two processes as each is free
+
+
+def test_a_render_device_the_machine_lacks_is_refused_before_anything_is_written(tmp_path, capsys):
+    with pytest.raises(ValueError, match="EGL device 10000 does not exist: this machine's EGL devices are 0"):
+        sweep_agent(AGENT, [Point("camera", 0.3, True)], tmp_path / "out", render_devices=[0, 10_000])
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(SystemExit):
+        main([AGENT, "--render-devices", "gpu1", "--out", str(tmp_path / "out")])
+    assert "'gpu1' is not a render device: give an EGL device index" in capsys.readouterr().err
+
+
+def test_an_evaluation_process_spawned_on_another_device_than_its_own_refuses_to_start(monkeypatch):
+    from dcs_torchrl.pretrained import _start_worker
+
+    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "0")
+    with pytest.raises(RuntimeError, match="must be spawned with MUJOCO_EGL_DEVICE_ID=3"):
+        _start_worker(AGENT, "cpu", False, 1, 0, 3)

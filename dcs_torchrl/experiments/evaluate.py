@@ -44,7 +44,8 @@ __all__ = ["SETTABLE", "evaluate_checkpoint", "evaluate_from_config", "main", "s
 log = logging.getLogger(__name__)
 
 #: What the command line may set; the rest of the config is the trained run's.
-SETTABLE = ("train_dir", "eval_env.", "eval.episodes", "eval.num_workers", "device", "experiment", "sweep", "progress", "hydra.")
+SETTABLE = ("train_dir", "eval_env.", "eval.episodes", "eval.num_workers", "device", "execution.render_device",
+            "experiment", "sweep", "progress", "hydra.")
 
 # The default run directory (evaluate.yaml): named after the overrides, `as_trained` without any.
 OmegaConf.register_new_resolver("or_default", lambda value, default: value or default, replace=True)
@@ -101,7 +102,9 @@ def evaluate_checkpoint(
         train_dir: a finished training run (``results.json`` and its checkpoints), an exported
             agent, or a shipped agent's name (:func:`dcs_torchrl.pretrained.shipped_agents`).
         targets: where each evaluation writes, and what it evaluates.
-        settings: ``eval.episodes``, ``eval.num_workers``, ``device`` overriding the trained run's.
+        settings: ``eval.episodes``, ``eval.num_workers``, ``device`` overriding the trained run's;
+            ``execution.render_device`` (default ``auto``: the GPU of ``device`` where NVIDIA's EGL
+            driver maps it, as in training; not the trained run's, which names its own machine).
         threads: torch threads (``None``: torch's default).
         processes: evaluations run at once, each in its own process and one env per evaluation
             (:func:`dcs_torchrl.pretrained.evaluate_settings`); every return is the one a lone
@@ -114,7 +117,7 @@ def evaluate_checkpoint(
 
     from dcs_torchrl.pretrained import agent_directory, checkpoint_sha256, evaluate_settings
     from dcs_torchrl.training import RunDirectory
-    from dcs_torchrl.training.envs import env_options, env_settings
+    from dcs_torchrl.training.envs import env_options, env_settings, render_device
 
     train_dir = agent_directory(train_dir)  # a run, an exported agent, or a shipped agent's name
     trained = _trained_results(train_dir)
@@ -123,6 +126,8 @@ def evaluate_checkpoint(
     episodes = int(settings.get("eval.episodes", cfg.eval.episodes))
     workers = int(settings.get("eval.num_workers", cfg.eval.num_workers))
     device = str(settings.get("device", cfg.device))
+    render = render_device(OmegaConf.create({"device": device, "execution": {
+        "render_device": settings.get("execution.render_device", "auto")}}))  # a bad index is refused here
     train_options = env_options(cfg.env)
 
     digest = checkpoint_sha256(train_dir)
@@ -150,6 +155,7 @@ def evaluate_checkpoint(
     pending = {index: (run, evaluation, eval_settings) for index, run, evaluation, eval_settings in todo}
     for index, result, seconds in evaluate_settings(train_dir, {i: e.eval_env for i, (_, e, _) in pending.items()},
                                                     episodes, processes=processes, workers=workers, device=device,
+                                                    render_devices=None if render is None else [render],
                                                     final=True):  # a training checkpoint or an exported agent
         run, evaluation, eval_settings = pending[index]
         config = OmegaConf.to_container(cfg)
@@ -157,6 +163,7 @@ def evaluate_checkpoint(
             experiment=evaluation.experiment, sweep=evaluation.sweep, device=device,
             eval_env={**config["eval_env"], **evaluation.eval_env},
             eval={**config["eval"], "episodes": episodes, "num_workers": workers},
+            execution={**config.get("execution", {}), "render_device": "process" if render is None else render},
             evaluated_from={"train_dir": os.path.relpath(train_dir, run.path), "checkpoint_frames": trained["steps"],
                             "checkpoint_sha256": digest},
         )
@@ -178,8 +185,10 @@ def evaluate_from_config(cfg: DictConfig) -> dict:
     fixed = sorted(k for k in given if not k.startswith(SETTABLE))
     if fixed:
         raise SystemExit(f"{fixed}: these come from the trained run ({cfg.train_dir}/results.json); "
-                         "here only eval_env.*, eval.episodes, eval.num_workers, device, experiment and sweep.")
-    settings = {k: OmegaConf.select(cfg, k) for k in ("eval.episodes", "eval.num_workers", "device") if k in given}
+                         "here only eval_env.*, eval.episodes, eval.num_workers, device, "
+                         "execution.render_device, experiment and sweep.")
+    settings = {k: OmegaConf.select(cfg, k) for k in ("eval.episodes", "eval.num_workers", "device",
+                                                       "execution.render_device") if k in given}
     eval_env = {k: v for k, v in OmegaConf.to_container(cfg.eval_env, resolve=True).items() if v is not None}
     sweep = OmegaConf.to_container(cfg.sweep, resolve=True) if cfg.sweep is not None else None
     evaluation = Evaluation("", cfg.experiment, eval_env, sweep)

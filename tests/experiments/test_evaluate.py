@@ -68,3 +68,16 @@ def test_stale_reason_names_what_changed():
         f"it showed stand-in videos version 1, today's are version {EMBEDDED_VERSION}")
     no_videos = {"num_videos": 0, "background_blend": 1.0, "background_dir": None}
     assert stale_reason({"eval_env": no_videos}, "a" * 64, no_videos) is None
+
+
+def test_an_evaluation_renders_on_the_chosen_device_and_records_it(tmp_path, monkeypatch):
+    """``execution.render_device``: an EGL index renders there (here 0, in a process spawned on it,
+    this process pretending to render on 1) with the returns of this process; recorded in the config."""
+    agent = shipped_agents()["sac_rad_cartpole_swingup"]
+    evaluation = Evaluation("", "robustness", {"camera_scale": 0.2}, {"axis": "camera_scale", "value": 0.2, "dynamic": False})
+    (here,) = evaluate_checkpoint(agent, [(tmp_path / "here", evaluation)], settings={"eval.episodes": 1})
+    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")
+    (there,) = evaluate_checkpoint(agent, [(tmp_path / "there", evaluation)],
+                                   settings={"eval.episodes": 1, "execution.render_device": 0})
+    assert here["config"]["execution"]["render_device"] == "process" and there["config"]["execution"]["render_device"] == 0
+    assert there["eval"]["returns"] == here["eval"]["returns"]

@@ -293,7 +293,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     results = _results(directory)
     if episodes < 1 or workers < 1:
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
-    render_device_indices(render_devices)  # a device this machine lacks is refused before anything is written
+    devices = render_device_indices(render_devices)  # a device this machine lacks: refused before anything is written
     background_dir, num_videos = _background(background_dir, num_videos)
     keys = [p.key(background_dir, num_videos) for p in points]
     settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
@@ -304,7 +304,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     done = _stored_points(stored, identity, out)
     todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
     bar = _progress(list(todo), progress)
-    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=render_devices):
+    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=devices):
         point_id = _point_id(identities[key])
         done[point_id] = result
         write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})

@@ -126,8 +126,8 @@ def evaluate_checkpoint(
     episodes = int(settings.get("eval.episodes", cfg.eval.episodes))
     workers = int(settings.get("eval.num_workers", cfg.eval.num_workers))
     device = str(settings.get("device", cfg.device))
-    render = render_device(OmegaConf.create({"device": device, "execution": {
-        "render_device": settings.get("execution.render_device", "auto")}}))  # a bad index is refused here
+    # not the trained run's execution.render_device, which names the machine it trained on; a bad index is refused here
+    render = render_device(OmegaConf.create({"device": device}), settings.get("execution.render_device", "auto"))
     train_options = env_options(cfg.env)
 
     digest = checkpoint_sha256(train_dir)

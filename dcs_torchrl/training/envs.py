@@ -91,12 +91,14 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     return env
 
 
-def render_device(cfg) -> int | None:
-    """The EGL device a recipe's envs render on, from ``execution.render_device``: an EGL device
-    index as given (checked against the machine's); ``auto`` (default): with ``device=cuda[:N]``
-    the EGL device of that GPU where NVIDIA's EGL driver names one, else ``None`` (this process's
-    device: ``MUJOCO_EGL_DEVICE_ID`` or dm_control's default, the first), as on the CPU."""
-    choice = OmegaConf.select(cfg, "execution.render_device", default="auto")
+def render_device(cfg, choice=None) -> int | None:
+    """The EGL device a recipe's envs render on, from ``execution.render_device`` (or ``choice``
+    where given, for the device of ``cfg.device``): an EGL device index as given (checked against
+    the machine's); ``auto`` (default): with ``device=cuda[:N]`` the EGL device of that GPU where
+    NVIDIA's EGL driver names one, else ``None`` (this process's device: ``MUJOCO_EGL_DEVICE_ID``
+    or dm_control's default, the first), as on the CPU."""
+    if choice is None:
+        choice = OmegaConf.select(cfg, "execution.render_device", default="auto")
     if choice != "auto":
         if isinstance(choice, bool) or not isinstance(choice, int) or choice < 0:
             raise ValueError(f"execution.render_device must be auto or an EGL device index (an int >= 0), got {choice!r}.")

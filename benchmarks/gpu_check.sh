@@ -6,10 +6,15 @@
 #   bash benchmarks/gpu_check.sh speed    # benchmarks/gpu_speed.py, its full table (~6 min)
 #   bash benchmarks/gpu_check.sh learn    # docs/training.md's short run (16K frames) with device=cuda (~2 min)
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
-#   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -x -n 16)
+#   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -n 16; every
+#                                         # failure listed, junit XML beside it)
 #
 # On a bare box made ready by ../shared/device/prepare.sh-style wheels, source their
-# on_device.sh first; elsewhere the installed package is used as it is.
+# on_device.sh first; elsewhere the installed package is used as it is. Such a box lacks
+# Gymnasium (the [gym] extra): without it the suite leaves out its tests and says so in its
+# header (conftest.py). To run them there too, add its wheels before going:
+#   python -m pip download --no-deps --only-binary=:all: --python-version 3.12 --platform any \
+#       -d .whl "gymnasium==$(python -m pip show gymnasium | awk '/^Version/{print $2}')" farama-notifications cloudpickle
 set -u
 stage=${1:-quick}
 OUT=${OUT:-gpu_check}
@@ -42,7 +47,7 @@ case $stage in
       --only "one env" ParallelEnv ParallelSuiteEnv "ParallelSuiteEnv, unlocked" "16 processes"
     ;;
   suite)
-    step suite 560 python3 -m pytest -q -x -p no:cacheprovider -n 16
+    step suite 560 python3 -m pytest -q -rfE -p no:cacheprovider -n 16 --junitxml="$OUT/suite.xml"
     ;;
   *)
     echo "unknown stage $stage: quick, speed, learn, parallel or suite" >&2

@@ -270,9 +270,10 @@ class Workspace:
                     with self.timer("eval"):
                         self._evaluate_periodically()
                 if self.frames >= counters["next_checkpoint"] and counters["steps"] < self.total_steps:
+                    # the next one is due before this one is saved: a run resumed from it does not save again at once
+                    counters["next_checkpoint"] = _next_due(self.frames, counters["next_checkpoint"], cfg.checkpoint.interval)
                     with self.timer("checkpoint"):
                         self.checkpoint()
-                    counters["next_checkpoint"] = _next_due(self.frames, counters["next_checkpoint"], cfg.checkpoint.interval)
         bar.close()
         collector.shutdown()
 

@@ -11,9 +11,11 @@ import time
 from pathlib import Path
 
 import pytest
+import torch
 
 from dcs_torchrl.report.load import parse_run
 from dcs_torchrl.training import read_metrics
+from dcs_torchrl.training.checkpoint import list_checkpoints
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = [
@@ -77,6 +79,9 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     os.kill(process.pid, signal.SIGKILL)
     process.wait()
     assert not (run_dir / "results.json").exists()
+    for frames, path in list_checkpoints(run_dir / "checkpoints"):  # each says what is due after it, not itself
+        counters = torch.load(path, map_location="cpu", weights_only=False)["counters"]
+        assert counters["next_checkpoint"] > frames and counters["next_eval"] > frames, (frames, counters)
     resumed = recipe("sac", run_dir, *args)
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert "resuming from the checkpoint at" in resumed.stdout

@@ -11,8 +11,8 @@
 #
 # On a bare box made ready by ../shared/device/prepare.sh-style wheels, source their
 # on_device.sh first; elsewhere the installed package is used as it is. Such a box lacks
-# Gymnasium (the [gym] extra): without it the suite leaves out its tests and says so in its
-# header (conftest.py). To run them there too, add its wheels before going:
+# Gymnasium (the [gym] extra): without it the suite leaves out its tests and says so at the end of its
+# output (conftest.py). To run them there too, add its wheels before going:
 #   python -m pip download --no-deps --only-binary=:all: --python-version 3.12 --platform any \
 #       -d .whl "gymnasium==$(python -m pip show gymnasium | awk '/^Version/{print $2}')" farama-notifications cloudpickle
 set -u

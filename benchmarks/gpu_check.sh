@@ -8,6 +8,11 @@
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
 #   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -n 16; every
 #                                         # failure listed, junit XML beside it)
+#   bash benchmarks/gpu_check.sh lease    # what fits one 10-minute call, most needed first (a 15-minute loan:
+#                                         # the box's start, this, the transfers): the GPU and its EGL devices, the
+#                                         # CUDA tests, gpu_speed.py at batch 512 alone on the box, then at once
+#                                         # (nothing timed): the suite on 10 cores, the renderer scores, the 16K run.
+#                                         # Ends by $DEADLINE seconds (560); 8 files under $OUT
 #
 # On a bare box made ready by ../shared/device/prepare.sh-style wheels, source their
 # on_device.sh first; elsewhere the installed package is used as it is. Such a box lacks
@@ -21,15 +26,30 @@ OUT=${OUT:-gpu_check}
 mkdir -p "$OUT"
 export MUJOCO_GL=${MUJOCO_GL:-egl}
 step() {  # step <name> <seconds> <command...>: its output in $OUT/<name>.txt, its exit status printed
+  # (at the limit an interrupt, so that pytest and the benchmarks print what they have; a kill 20 s later)
   local name=$1 seconds=$2
   shift 2
-  timeout "$seconds" "$@" > "$OUT/$name.txt" 2>&1
+  timeout -s INT -k 20 "$seconds" "$@" > "$OUT/$name.txt" 2>&1
   echo "$name: exit $? ($(tail -n 1 "$OUT/$name.txt"))"
 }
+left() {  # left <most>: seconds to give the next step, at most <most>, so that the stage ends by $DEADLINE
+  local rest=$((DEADLINE - SECONDS))
+  echo $((rest < $1 ? rest : $1))
+}
+MACHINE='nvidia-smi; lscpu | grep "Model name"
+  python3 -c "import torch; print(torch.__version__, torch.version.cuda, torch.backends.cudnn.version())"
+  python3 -c "from dcs_torchrl.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]"'
+learn() {  # learn <seconds>
+  step learn_cuda "$1" python3 recipes/sac/sac.py algo.aug=rad env.benchmark=easy total_frames=16000 \
+    algo.batch_size=128 eval.interval=4000 eval.periodic_episodes=5 eval.episodes=10 checkpoint.interval=4000 \
+    device=cuda progress=false hydra.run.dir=/tmp/gpu_check_learn
+  cp /tmp/gpu_check_learn/results.json /tmp/gpu_check_learn/metrics.csv "$OUT/"
+}
+SECONDS=0
+DEADLINE=${DEADLINE:-560}
 case $stage in
   quick)
-    step machine 30 bash -c 'nvidia-smi; lscpu | grep "Model name"; python3 -c "import torch; print(torch.__version__, torch.version.cuda, torch.backends.cudnn.version())"'
-    step egl_devices 30 python3 -c 'from dcs_torchrl.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]'
+    step machine 60 bash -c "$MACHINE"
     step test_cuda 240 python3 -m pytest -q -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py tests/test_parallel.py
     step renderer_scores 200 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda'
     ;;
@@ -37,10 +57,7 @@ case $stage in
     step gpu_speed 540 python3 benchmarks/gpu_speed.py
     ;;
   learn)
-    step learn_cuda 480 python3 recipes/sac/sac.py algo.aug=rad env.benchmark=easy total_frames=16000 \
-      algo.batch_size=128 eval.interval=4000 eval.periodic_episodes=5 eval.episodes=10 checkpoint.interval=4000 \
-      device=cuda progress=false hydra.run.dir=/tmp/gpu_check_learn
-    cp /tmp/gpu_check_learn/results.json /tmp/gpu_check_learn/metrics.csv "$OUT/"
+    learn 480
     ;;
   parallel)
     step parallel_speed 540 python3 benchmarks/parallel_speed.py --workers 16 --steps 100 --rounds 3 \
@@ -49,8 +66,18 @@ case $stage in
   suite)
     step suite 560 python3 -m pytest -q -rfE -p no:cacheprovider -n 16 --junitxml="$OUT/suite.xml"
     ;;
+  lease)
+    step machine 60 bash -c "$MACHINE"
+    step test_cuda "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py
+    step gpu_speed "$(left 270)" python3 benchmarks/gpu_speed.py --batch-sizes 512
+    rest=$((DEADLINE - SECONDS - 5)); rest=$((rest > 1 ? rest : 1))
+    step suite "$rest" python3 -m pytest -q -rfE -p no:cacheprovider -n 10 &
+    step renderer_scores "$rest" bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda' &
+    learn "$rest" &
+    wait
+    ;;
   *)
-    echo "unknown stage $stage: quick, speed, learn, parallel or suite" >&2
+    echo "unknown stage $stage: quick, speed, learn, parallel, suite or lease" >&2
     exit 2
     ;;
 esac

@@ -224,7 +224,7 @@ def measure_loop(algo: str, batch: int, variant: str, args) -> dict | None:
                f"collector.seed_steps={args.seed_steps}", f"total_frames={(args.seed_steps + args.loop_steps) * REPEAT}",
                f"logger.interval={interval * REPEAT}", "eval.interval=100000000", "eval.episodes=1", "eval.video=false",
                "checkpoint.interval=100000000", "progress=false", f"hydra.run.dir={tmp}/run", *variant_overrides(variant)]
-        subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
         rows = read_metrics(Path(tmp) / "run/metrics.csv")
     logged = sorted({r["frames"] for r in rows if r["name"] == "time/fps"})
     after = [f for f in logged if f // REPEAT >= args.seed_steps + interval]  # rows of learning steps only (after warm-up)

@@ -165,7 +165,7 @@ def child(args) -> None:
 def run_child(kind: str, method: str, batch: int, args) -> dict:
     cmd = [sys.executable, __file__, "--child", kind, "--methods", method, "--batch-sizes", str(batch),
            "--steps", str(args.steps), "--seed-steps", str(args.seed_steps), "--updates", str(args.updates)]
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

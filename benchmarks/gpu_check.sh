@@ -6,6 +6,7 @@
 #   bash benchmarks/gpu_check.sh speed    # benchmarks/gpu_speed.py, its full table (~6 min)
 #   bash benchmarks/gpu_check.sh learn    # docs/training.md's short run (16K frames) with device=cuda (~2 min)
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
+#   bash benchmarks/gpu_check.sh concurrent # benchmarks/concurrent_runs.py: 1, 2, 4, 8 recipe runs at once on the GPU (~5 min)
 #   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -n 16; every
 #                                         # failure listed, junit XML beside it)
 #   bash benchmarks/gpu_check.sh lease    # what fits one 10-minute call, most needed first (a 15-minute loan:
@@ -71,6 +72,9 @@ case $stage in
     step parallel_speed 540 python3 benchmarks/parallel_speed.py --workers 16 --steps 100 --rounds 3 \
       --only "one env" ParallelEnv ParallelSuiteEnv "ParallelSuiteEnv, unlocked" "16 processes"
     ;;
+  concurrent)
+    step concurrent_runs 540 python3 benchmarks/concurrent_runs.py --runs 1 2 4 8
+    ;;
   suite)
     step suite 560 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"
     ;;
@@ -86,7 +90,7 @@ case $stage in
     step suite "$(left 600)" python3 -m pytest "${suite_args[@]}" -n 14
     ;;
   *)
-    echo "unknown stage $stage: quick, speed, learn, parallel, suite or lease" >&2
+    echo "unknown stage $stage: quick, speed, learn, parallel, concurrent, suite or lease" >&2
     exit 2
     ;;
 esac

@@ -210,26 +210,35 @@ def release(device: torch.device) -> None:
         torch.cuda.empty_cache()
 
 
-def measure_loop(algo: str, batch: int, variant: str, args) -> dict | None:
-    """The recipe itself for ``--seed-steps`` random and ``--loop-steps`` learning agent steps:
-    seconds per learning agent step, all in, and its phase rows."""
+LOOP_INTERVAL = 25  # agent steps between the loop's log rows
+
+
+def loop_command(algo: str, batch: int, variant: str, args, run_dir: str | Path, seed: int = 0) -> list[str]:
+    """The recipe (cartpole swingup, one env) for ``args.seed_steps`` random and ``args.loop_steps``
+    learning agent steps, on ``args.device``, with ``variant``'s settings."""
+    return [sys.executable, "-m", "dcs_torchrl.training", f"--config-name={algo}", "algo.aug=drq",
+            f"algo.batch_size={batch}", f"device={args.device}", f"network.hidden_dim={args.hidden}",
+            f"collector.seed_steps={args.seed_steps}", f"total_frames={(args.seed_steps + args.loop_steps) * REPEAT}",
+            f"logger.interval={LOOP_INTERVAL * REPEAT}", "eval.interval=100000000", "eval.episodes=1", "eval.video=false",
+            "checkpoint.interval=100000000", "progress=false", f"seed={seed}", f"hydra.run.dir={run_dir}",
+            *variant_overrides(variant)]
+
+
+def child_env(**extra: str) -> dict:
+    """This process's environment, the project in front of ``PYTHONPATH`` (which may hold more)."""
+    return {**os.environ, **extra, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+
+
+def loop_timing(metrics_csv: Path, seed_steps: int, loop_steps: int) -> dict:
+    """Seconds per learning agent step, all in, between the first log row after a warm-up interval
+    of learning and the last row, and the mean of each phase row in between."""
     from dcs_torchrl.training import read_metrics
 
-    if args.loop_steps <= 0:
-        return None
-    interval = 25
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "dcs_torchrl.training", f"--config-name={algo}", "algo.aug=drq",
-               f"algo.batch_size={batch}", f"device={args.device}", f"network.hidden_dim={args.hidden}",
-               f"collector.seed_steps={args.seed_steps}", f"total_frames={(args.seed_steps + args.loop_steps) * REPEAT}",
-               f"logger.interval={interval * REPEAT}", "eval.interval=100000000", "eval.episodes=1", "eval.video=false",
-               "checkpoint.interval=100000000", "progress=false", f"hydra.run.dir={tmp}/run", *variant_overrides(variant)]
-        subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
-        rows = read_metrics(Path(tmp) / "run/metrics.csv")
+    rows = read_metrics(metrics_csv)
     logged = sorted({r["frames"] for r in rows if r["name"] == "time/fps"})
-    after = [f for f in logged if f // REPEAT >= args.seed_steps + interval]  # rows of learning steps only (after warm-up)
+    after = [f for f in logged if f // REPEAT >= seed_steps + LOOP_INTERVAL]  # rows of learning steps only (after warm-up)
     if len(after) < 2:
-        raise SystemExit(f"--loop-steps {args.loop_steps} is too short to time: use at least {3 * interval}.")
+        raise SystemExit(f"--loop-steps {loop_steps} is too short to time: use at least {3 * LOOP_INTERVAL}.")
     first, last = after[0], after[-1]
     wall = {r["frames"]: r["wall_time"] for r in rows if r["name"] == "time/fps"}
     phases = {}
@@ -237,6 +246,16 @@ def measure_loop(algo: str, batch: int, variant: str, args) -> dict | None:
         values = [r["value"] for r in rows if r["name"] == f"time/{phase}_ms" and first < r["frames"] <= last]
         phases[phase] = sum(values) / len(values) if values else 0.0
     return {"step_s": (wall[last] - wall[first]) / ((last - first) / REPEAT), "phases_ms": phases}
+
+
+def measure_loop(algo: str, batch: int, variant: str, args) -> dict | None:
+    """The recipe itself (``loop_command``): seconds per learning agent step, all in, and its phase rows."""
+    if args.loop_steps <= 0:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run(loop_command(algo, batch, variant, args, f"{tmp}/run"), cwd=ROOT, check=True,
+                       stdout=subprocess.DEVNULL, env=child_env())
+        return loop_timing(Path(tmp) / "run/metrics.csv", args.seed_steps, args.loop_steps)
 
 
 def matmul_tflops(device: torch.device, size: int, dtype: torch.dtype, tf32: bool) -> float:

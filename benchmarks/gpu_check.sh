@@ -83,7 +83,8 @@ case $stage in
     step test_cuda "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py
     # each step alone on the box: on the first try, the suite's 10 workers (16 torch threads each) beside
     # the renderer scores and the 16K run left both unfinished after 5 minutes
-    step gpu_speed "$(left 120)" python3 benchmarks/gpu_speed.py --batch-sizes 512 --loop-steps 0
+    step gpu_speed "$(left 150)" python3 benchmarks/gpu_speed.py --batch-sizes 512 --loop-steps 0 \
+      --variants eager cudagraph cudagraph+nchw cudagraph+tf32 cudagraph+tf32+nchw
     step gpu_loop "$(left 200)" python3 benchmarks/gpu_speed.py --methods sac --batch-sizes 512 \
       --variants eager cudagraph+tf32 --no-flops --updates 5
     step renderer_scores "$(left 120)" bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda'

@@ -21,7 +21,8 @@
 # output (conftest.py). To run them there too, add its wheels before going:
 #   python -m pip download --no-deps --only-binary=:all: --python-version 3.12 --platform any \
 #       -d .whl "gymnasium==$(python -m pip show gymnasium | awk '/^Version/{print $2}')" farama-notifications cloudpickle
-# prepare.sh's slimmed dm_control wheel has no dog assets: there the suite deselects the dog tests
+# The suite's workers get two torch threads each, as on a 2-core CI machine (torch's default there:
+# 16 each, 256 threads on 16 cores). prepare.sh's slimmed dm_control wheel has no dog assets: there the suite deselects the dog tests
 # (they fail with StopIteration inside dm_control.suite.dog) and says so.
 set -u
 stage=${1:-quick}
@@ -76,7 +77,7 @@ case $stage in
     step concurrent_runs 540 python3 benchmarks/concurrent_runs.py --runs 1 2 4 8
     ;;
   suite)
-    step suite 560 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"
+    step suite 560 env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"
     ;;
   lease)
     step machine 60 bash -c "$MACHINE"
@@ -88,7 +89,7 @@ case $stage in
     step gpu_loop "$(left 200)" python3 benchmarks/gpu_speed.py --methods sac --batch-sizes 512 \
       --variants eager cudagraph+tf32 --no-flops --updates 5
     step renderer_scores "$(left 120)" bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda'
-    step suite "$(left 600)" python3 -m pytest "${suite_args[@]}" -n 14
+    step suite "$(left 600)" env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 14
     ;;
   *)
     echo "unknown stage $stage: quick, speed, learn, parallel, concurrent, suite or lease" >&2

@@ -22,8 +22,9 @@
 #   python -m pip download --no-deps --only-binary=:all: --python-version 3.12 --platform any \
 #       -d .whl "gymnasium==$(python -m pip show gymnasium | awk '/^Version/{print $2}')" farama-notifications cloudpickle
 # The suite's workers get two torch threads each, as on a 2-core CI machine (torch's default there:
-# 16 each, 256 threads on 16 cores). prepare.sh's slimmed dm_control wheel has no dog assets: there the suite deselects the dog tests
-# (they fail with StopIteration inside dm_control.suite.dog) and says so.
+# 16 each, 256 threads on 16 cores). prepare.sh's slimmed dm_control wheel has no dog assets: there
+# the suite deselects the dog tests (they fail with StopIteration inside dm_control.suite.dog) and
+# says so.
 set -u
 stage=${1:-quick}
 OUT=${OUT:-gpu_check}

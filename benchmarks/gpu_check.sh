@@ -10,10 +10,10 @@
 #   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -n 16; every
 #                                         # failure listed, junit XML beside it)
 #   bash benchmarks/gpu_check.sh lease    # what fits one 10-minute call, most needed first (a 15-minute loan:
-#                                         # the box's start, ~30 s; this; the transfers), one step at a time:
-#                                         # the GPU and its EGL devices, the CUDA tests, gpu_speed.py at batch 512
-#                                         # (phases, then SAC+DrQ's loop rows), the renderer scores (10 episodes),
-#                                         # the suite in what is left. Ends by $DEADLINE seconds (540)
+#                                         # the box's start, ~30 s; this; the transfers): the GPU and its EGL
+#                                         # devices, the CUDA tests, gpu_speed.py at batch 512 alone (phases, then
+#                                         # SAC+DrQ's loop rows), then together in what is left: the renderer
+#                                         # scores (10 episodes) and the suite. Ends by $DEADLINE seconds (540)
 #
 # On a bare box made ready by ../shared/device/prepare.sh-style wheels, source their
 # on_device.sh first; elsewhere the installed package is used as it is. Such a box lacks
@@ -83,14 +83,17 @@ case $stage in
   lease)
     step machine 60 bash -c "$MACHINE"
     step test_cuda "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py
-    # each step alone on the box: on the first try, the suite's 10 workers (16 torch threads each) beside
-    # the renderer scores and the 16K run left both unfinished after 5 minutes
-    step gpu_speed "$(left 150)" python3 benchmarks/gpu_speed.py --batch-sizes 512 --loop-steps 0 \
+    # the timed steps alone on the box
+    step gpu_speed "$(left 120)" python3 benchmarks/gpu_speed.py --batch-sizes 512 --loop-steps 0 \
       --variants eager cudagraph cudagraph+nchw cudagraph+tf32 cudagraph+tf32+nchw
-    step gpu_loop "$(left 200)" python3 benchmarks/gpu_speed.py --methods sac --batch-sizes 512 \
+    step gpu_loop "$(left 180)" python3 benchmarks/gpu_speed.py --methods sac --batch-sizes 512 \
       --variants eager cudagraph+tf32 --no-flops --updates 5
-    step renderer_scores "$(left 120)" bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda'
-    step suite "$(left 600)" env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 14
+    # then the untimed ones together, with few threads each (on the first try, the suite's workers
+    # at torch's 16 threads each left a run beside them at 24 frames/s)
+    rest=$(left 600)
+    step renderer_scores "$rest" env OMP_NUM_THREADS=2 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda' &
+    step suite "$rest" env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 12 &
+    wait
     ;;
   *)
     echo "unknown stage $stage: quick, speed, learn, parallel, concurrent, suite or lease" >&2

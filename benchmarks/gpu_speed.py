@@ -258,9 +258,26 @@ def measure_loop(algo: str, batch: int, variant: str, args) -> dict | None:
     if args.loop_steps <= 0:
         return None
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run(loop_command(algo, batch, variant, args, f"{tmp}/run"), cwd=ROOT, check=True,
-                       stdout=subprocess.DEVNULL, env=child_env())
+        log = Path(tmp) / "recipe.log"
+        try:
+            with open(log, "w") as out:
+                subprocess.run(loop_command(algo, batch, variant, args, f"{tmp}/run"), cwd=ROOT, check=True,
+                               stdout=out, stderr=subprocess.STDOUT, env=child_env())
+        except (subprocess.CalledProcessError, KeyboardInterrupt):
+            report_progress(log, Path(tmp) / "run/metrics.csv")
+            raise
         return loop_timing(Path(tmp) / "run/metrics.csv", args.seed_steps, args.loop_steps)
+
+
+def report_progress(log: Path, metrics_csv: Path) -> None:
+    """Where a recipe run that failed or was interrupted had got to: its output's last lines and
+    its last ``time/`` rows (frames, wall time), on stderr."""
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    rows = metrics_csv.read_text().splitlines()[1:] if metrics_csv.exists() else []
+    times = [row for row in rows if ",time/" in row]
+    print("the recipe run stopped; its last output:\n" + "\n".join(lines[-20:])
+          + f"\nits last time rows (frames,name,value,wall_time), of {len(rows)} rows:\n" + "\n".join(times[-8:]),
+          file=sys.stderr, flush=True)
 
 
 def matmul_tflops(device: torch.device, size: int, dtype: torch.dtype, tf32: bool) -> float:

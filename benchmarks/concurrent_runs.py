@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     gpu_speed.variant_overrides(args.variant)  # an unknown variant is refused before anything starts
     if args.device.startswith("cuda") and not gpu_speed.torch.cuda.is_available():
         raise SystemExit("--device cuda but CUDA is not available: use --device cpu.")
-    cores = os.cpu_count() or 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1  # the cores this process may use
     line, _ = gpu_speed.device_line(gpu_speed.torch.device(args.device))
     if not line.startswith("CPU"):
         line += f"; CPU: {cpu_model()}, {cores} logical cores"

@@ -25,9 +25,9 @@ import tempfile
 from pathlib import Path
 
 import gpu_speed
-from gpu_speed import ROOT, REPEAT, child_env, loop_command, loop_timing
+from gpu_speed import REPEAT, ROOT, loop_command, loop_timing
 
-from machine import cpu_model
+from machine import child_env, cpu_model
 
 
 def run_at_once(count: int, threads: int, args) -> list[dict]:

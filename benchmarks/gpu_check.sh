@@ -45,12 +45,6 @@ left() {  # left <most>: seconds to give the next step, at most <most>, so that 
 MACHINE='nvidia-smi; lscpu | grep "Model name"
   python3 -c "import torch; print(torch.__version__, torch.version.cuda, torch.backends.cudnn.version())"
   python3 -c "from dcs_torchrl.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]"'
-learn() {  # learn <seconds>
-  step learn_cuda "$1" python3 recipes/sac/sac.py algo.aug=rad env.benchmark=easy total_frames=16000 \
-    algo.batch_size=128 eval.interval=4000 eval.periodic_episodes=5 eval.episodes=10 checkpoint.interval=4000 \
-    device=cuda progress=false hydra.run.dir=/tmp/gpu_check_learn
-  cp /tmp/gpu_check_learn/results.json /tmp/gpu_check_learn/metrics.csv "$OUT/"
-}
 SECONDS=0
 DEADLINE=${DEADLINE:-540}
 suite_args=(-q -rfE -p no:cacheprovider)
@@ -68,7 +62,10 @@ case $stage in
     step gpu_speed 540 python3 benchmarks/gpu_speed.py
     ;;
   learn)
-    learn 480
+    step learn_cuda 480 python3 recipes/sac/sac.py algo.aug=rad env.benchmark=easy total_frames=16000 \
+      algo.batch_size=128 eval.interval=4000 eval.periodic_episodes=5 eval.episodes=10 checkpoint.interval=4000 \
+      device=cuda progress=false hydra.run.dir=/tmp/gpu_check_learn
+    cp /tmp/gpu_check_learn/results.json /tmp/gpu_check_learn/metrics.csv "$OUT/"
     ;;
   parallel)
     step parallel_speed 540 python3 benchmarks/parallel_speed.py --workers 16 --steps 100 --rounds 3 \

@@ -58,6 +58,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from loop_speed import LOOP_ROWS, cpu_model  # noqa: E402
+from machine import child_env  # noqa: E402
 from update_flops import FlopCount  # noqa: E402
 from update_speed import ACTION_DIM, ReferenceQTOpt, ReferenceSAC, make_batch  # noqa: E402
 
@@ -227,11 +228,6 @@ def loop_command(algo: str, batch: int, variant: str, args, run_dir: str | Path,
             f"logger.interval={LOOP_INTERVAL * REPEAT}", "eval.interval=100000000", "eval.episodes=1", "eval.video=false",
             "checkpoint.interval=100000000", "progress=false", f"seed={seed}", f"hydra.run.dir={run_dir}",
             *variant_overrides(variant)]
-
-
-def child_env(**extra: str) -> dict:
-    """This process's environment, the project in front of ``PYTHONPATH`` (which may hold more)."""
-    return {**os.environ, **extra, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
 
 
 def loop_timing(metrics_csv: Path, seed_steps: int, loop_steps: int) -> dict:

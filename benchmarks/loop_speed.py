@@ -32,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from dcs_torchrl.methods import method_name  # noqa: E402  (pure data: no torch import)
-from machine import cpu_model  # noqa: E402
+from machine import child_env, cpu_model  # noqa: E402
 
 LOOP_ROWS = ("collect", "extend", "sample", "update")
 REPEAT = 8  # cartpole swingup's action repeat
@@ -165,7 +165,7 @@ def child(args) -> None:
 def run_child(kind: str, method: str, batch: int, args) -> dict:
     cmd = [sys.executable, __file__, "--child", kind, "--methods", method, "--batch-sizes", str(batch),
            "--steps", str(args.steps), "--seed-steps", str(args.seed_steps), "--updates", str(args.updates)]
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, env=child_env())
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

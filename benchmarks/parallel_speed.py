@@ -15,6 +15,9 @@ Paths (cartpole swingup by default, default render profile, seeded random action
   pipes here, one env's observation at a time, and its episodes' order depends on timing);
 - ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling.
 
+First it prints the cores' own ceiling: n processes each running a one-thread float32 matmul at
+once, against one alone (about n on n real, idle cores; less where the cores are shared or busy).
+
 Every path is built once, then stepped in interleaved rounds (each round in the other order to
 the last), and the median round is reported with the main process's CPU use (``process_time``
 over wall time: a process that waits by spinning shows it). Ratios are taken round by round
@@ -164,6 +167,36 @@ def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
     }
 
 
+def _matmul_seconds(barrier, results) -> None:
+    """Puts the seconds of a fixed one-thread float32 matmul chain (no env, no render), started
+    when every process of the round is ready."""
+    torch.set_num_threads(1)
+    a = torch.randn(256, 256, generator=torch.Generator().manual_seed(0))
+    barrier.wait()
+    start = time.perf_counter()
+    for _ in range(600):
+        a = (a @ a) * 0.004
+    results.put(time.perf_counter() - start)
+
+
+def _matmul_round(ctx, n: int) -> float:
+    """The slowest of n processes running the matmul chain at once (seconds)."""
+    barrier, results = ctx.Barrier(n), ctx.Queue()
+    procs = [ctx.Process(target=_matmul_seconds, args=(barrier, results)) for _ in range(n)]
+    for proc in procs:
+        proc.start()
+    seconds = [results.get(timeout=300) for _ in procs]
+    for proc in procs:
+        proc.join()
+    return max(seconds)
+
+
+def compute_ceiling(n: int, rounds: int = 3) -> list[float]:
+    """Per round, n processes' matmul throughput at once over one process's alone."""
+    ctx = mp.get_context("spawn")
+    return [n * _matmul_round(ctx, 1) / _matmul_round(ctx, n) for _ in range(rounds)]
+
+
 def interleaved(runners: dict, steps: int, rounds: int) -> dict:
     """Per path, (agent steps/s, main CPU share) of each round; every other round in reverse order."""
     for runner in runners.values():
@@ -190,6 +223,9 @@ def main():
     domain, task = args.task.split(":")
     print(f"{cpu_model()}, {os.cpu_count()} cores; {domain} {task}, {args.workers} workers, "
           f"median of {args.rounds} rounds x {args.steps} batched steps")
+    ceiling = compute_ceiling(args.workers)
+    print(f"the cores' ceiling: {args.workers} one-thread matmul processes at once = "
+          f"{statistics.median(ceiling):.2f}x one ({min(ceiling):.2f}–{max(ceiling):.2f}, {len(ceiling)} rounds)")
     for benchmark in args.benchmarks:
         factory = functools.partial(dcs.make_env, domain, task, benchmark=benchmark, dynamic=True)
         made = paths(factory, args.workers, seed=0, render_threads=args.render_threads)

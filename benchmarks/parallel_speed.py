@@ -209,7 +209,8 @@ def interleaved(runners: dict, steps: int, rounds: int) -> dict:
     return out
 
 
-def main():
+def main(argv: list[str] | None = None) -> dict:
+    """Runs the benchmark; returns each benchmark's per-path rounds of (agent steps/s, main CPU share)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--steps", type=int, default=200, help="batched steps per path per round")
@@ -219,19 +220,26 @@ def main():
     parser.add_argument("--render-threads", type=int, nargs="*", default=[],
                         help="also ParallelSuiteEnv with these render_threads (Mesa llvmpipe threads per worker)")
     parser.add_argument("--only", nargs="+", help="path names to run (default: all)")
-    args = parser.parse_args()
+    parser.add_argument("--ceiling-rounds", type=int, default=3, help="rounds of the cores' ceiling (0: skip it)")
+    args = parser.parse_args(argv)
+    known = paths(None, args.workers, seed=0, render_threads=args.render_threads)
+    unknown = sorted(set(args.only or ()) - set(known))
+    if unknown:
+        parser.error(f"unknown path(s) {unknown}; the paths: {list(known)}")
     domain, task = args.task.split(":")
     print(f"{cpu_model()}, {os.cpu_count()} cores; {domain} {task}, {args.workers} workers, "
           f"median of {args.rounds} rounds x {args.steps} batched steps")
-    ceiling = compute_ceiling(args.workers)
-    print(f"the cores' ceiling: {args.workers} one-thread matmul processes at once = "
-          f"{statistics.median(ceiling):.2f}x one ({min(ceiling):.2f}–{max(ceiling):.2f}, {len(ceiling)} rounds)")
+    if args.ceiling_rounds > 0:
+        ceiling = compute_ceiling(args.workers, args.ceiling_rounds)
+        print(f"the cores' ceiling: {args.workers} one-thread matmul processes at once = "
+              f"{statistics.median(ceiling):.2f}x one ({min(ceiling):.2f}–{max(ceiling):.2f}, {len(ceiling)} rounds)")
+    results = {}
     for benchmark in args.benchmarks:
         factory = functools.partial(dcs.make_env, domain, task, benchmark=benchmark, dynamic=True)
         made = paths(factory, args.workers, seed=0, render_threads=args.render_threads)
         runners = {name: make() for name, make in made.items() if not args.only or name in args.only}
         try:
-            rates = interleaved(runners, args.steps, args.rounds)
+            rates = results[benchmark] = interleaved(runners, args.steps, args.rounds)
         finally:
             for runner in runners.values():
                 runner.close()
@@ -244,6 +252,7 @@ def main():
             ratios = [r / b for (r, _), (b, _) in zip(values, base)] if base else []
             ratio = f"{statistics.median(ratios):.2f} ({min(ratios):.2f}–{max(ratios):.2f})" if ratios else "-"
             print(f"| {name} | {rate:.0f} | {ratio} | {'-' if name.endswith('processes') else f'{100 * cpu:.0f}%'} |")
+    return results
 
 
 if __name__ == "__main__":

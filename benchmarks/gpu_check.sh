@@ -56,7 +56,7 @@ case $stage in
   quick)
     step machine 60 bash -c "$MACHINE"
     step test_cuda 240 python3 -m pytest -q -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py tests/test_parallel.py
-    step renderer_scores 200 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda'
+    step renderer_scores 200 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda --agents sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch'
     ;;
   speed)
     step gpu_speed 540 python3 benchmarks/gpu_speed.py
@@ -88,7 +88,7 @@ case $stage in
     # then the untimed ones together, with few threads each (on the first try, the suite's workers
     # at torch's 16 threads each left a run beside them at 24 frames/s)
     rest=$(left 600)
-    step renderer_scores "$rest" env OMP_NUM_THREADS=2 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda' &
+    step renderer_scores "$rest" env OMP_NUM_THREADS=2 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda --agents sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch' &
     step suite "$rest" env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 12 &
     wait
     ;;

@@ -91,8 +91,8 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False, fontsize=10)
     titles = {"robustness": "Trained without distractions, evaluated with one distraction",
               "training": "Trained and evaluated with one distraction"}
-    fig.suptitle(f"{titles.get(experiment, experiment)} ({spread})" + _note_lines(note, fig), fontsize=12)
-    fig.tight_layout(rect=(0, 0.4 / fig.get_figheight(), 1, 1))
+    title = _suptitle(fig, f"{titles.get(experiment, experiment)} ({spread})", note)
+    _tight_layout(fig, title, bottom=0.4 / fig.get_figheight())
     return _save(fig, path)
 
 
@@ -174,12 +174,12 @@ def benchmark_figure(tables: pd.DataFrame, interactions: pd.DataFrame, dynamic: 
     ax.set_ylim(bottom=0)
     ax.grid(axis="y", alpha=0.3)
     # over the whole figure, legend included: a long note would be cut off over the axes alone
-    fig.suptitle(f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds" + _note_lines(note, fig), fontsize=12)
+    title = _suptitle(fig, f"Benchmarks, {setting_name(dynamic)} setting: mean ± s.e. over seeds", note)
     handles = [Patch(color=METHOD_COLORS[m], label=m) for m in METHODS] + benchmark_markers(
         expected=drew_expected, paper_expected=drew_paper_expected, missing=any_missing,
         paper_label=paper_label, expected_label=expected_label)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)
-    fig.tight_layout()
+    _tight_layout(fig, title)
     return _save(fig, path)
 
 
@@ -199,9 +199,22 @@ def benchmark_markers(*, expected: bool, paper_expected: bool, missing: bool, pa
     return [entry for drawn, entry in entries if drawn]
 
 
-def _note_lines(note: str, fig: Figure) -> str:
-    """``note`` on its own lines under a title, wrapped to the figure's width (12-point text)."""
-    return "".join("\n" + line for line in textwrap.wrap(note, int(11 * fig.get_figwidth())))
+def _suptitle(fig: Figure, title: str, note: str):
+    """``title`` with ``note`` on its own lines under it, wrapped to the figure's width (12-point text)."""
+    lines = [title] + textwrap.wrap(note, int(11 * fig.get_figwidth()))
+    return fig.suptitle("\n".join(lines), fontsize=12)
+
+
+def _tight_layout(fig: Figure, title, bottom: float = 0.0) -> None:
+    """``fig.tight_layout`` above ``bottom`` (figure fraction), then the panels moved down where
+    their own titles would run into a ``title`` of several lines (tight_layout leaves too little room)."""
+    fig.tight_layout(rect=(0, bottom, 1, 1))
+    to_fig = fig.transFigure.inverted()
+    title_bottom = to_fig.transform((0, title.get_window_extent().y0))[1]
+    axes_top = max(to_fig.transform((0, ax.get_tightbbox().y1))[1] for ax in fig.axes)
+    overlap = axes_top - title_bottom + 0.1 / fig.get_figheight()
+    if overlap > 0:
+        fig.subplots_adjust(top=fig.subplotpars.top - overlap)
 
 
 def _save(fig, path) -> Path:

@@ -38,3 +38,30 @@ def test_figure_without_interaction_runs_names_no_expected_score(results_dir, tm
     assert len(calls) == 2  # static and dynamic figures
     assert all(not c["expected"] and c["paper_expected"] and c["missing"] for c in calls)
     assert (tmp_path / "report" / "figures" / "benchmarks_static.png").stat().st_size > 10_000
+
+
+def _title_clear_of_panels(fig) -> bool:
+    to_fig = fig.transFigure.inverted()
+    title_bottom = to_fig.transform((0, fig._suptitle.get_window_extent().y0))[1]
+    return all(to_fig.transform((0, ax.get_tightbbox().y1))[1] < title_bottom for ax in fig.axes)
+
+
+def test_a_title_of_several_lines_stays_clear_of_the_panels(results_dir, tmp_path, monkeypatch):
+    # a note that wraps to three lines once ran the curves figure's top panel titles into it
+    for value, score in (("none", 800.0), ("easy", 300.0), ("medium", 200.0)):
+        write_run(results_dir, score, method="SAC+RAD", domain="cartpole", task="swingup",
+                  experiment="benchmarks", axis="benchmark", value=value)
+    for domain, task in (("cartpole", "swingup"), ("cheetah", "run"), ("finger", "spin"), ("walker", "walk")):
+        for value, score in ((0.0, 800.0), (0.5, 400.0), (1.0, 100.0)):  # a row of panels per task: a tall figure
+            write_run(results_dir, score, method="SAC+RAD", domain=domain, task=task,
+                      experiment="robustness", axis="camera", value=value)
+    saved, suptitle = [], figures._suptitle
+    monkeypatch.setattr(figures, "_suptitle", lambda fig, title, note: suptitle(fig, title, note + " more" * 60))
+    monkeypatch.setattr(figures, "_save", lambda fig, path: saved.append(fig) or path)
+    build_report(results_dir, tmp_path / "report")
+    assert len(saved) == 3  # the robustness curves, the static and the dynamic benchmarks
+    for fig in saved:
+        to_fig = fig.transFigure.inverted()
+        assert fig.get_suptitle().count("\n") >= 3
+        title_bottom = to_fig.transform((0, fig._suptitle.get_window_extent().y0))[1]
+        assert all(to_fig.transform((0, ax.get_tightbbox().y1))[1] < title_bottom for ax in fig.axes)

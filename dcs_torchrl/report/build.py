@@ -5,6 +5,7 @@ Layout of ``out``::
     report.md                     summary, skipped files, runs left out, missing cells, links
     runs.csv                      the tidy runs table (one row per run in the report)
     left_out.csv                  runs of another training length or evaluation count (if any)
+    left_out_videos.csv           runs on older stand-in videos than their method's on that task (if any)
     tables/benchmark_<b>.md|csv   b in none, easy, medium, blind (+ any other benchmark found)
     tables/interactions.md|csv
     tables/<exp>_curves.md|csv, tables/<exp>_half_score.csv   exp in robustness, training
@@ -116,6 +117,21 @@ def _left_out_md(loaded: Loaded, w: _Writer) -> list[str]:
     for (s, e), g in loaded.left_out.groupby(["steps", "episodes"], sort=True):
         per_experiment = ", ".join(f"{x} {n}" for x, n in g["experiment"].value_counts().sort_index().items())
         md.append(f"- `steps` = {s}, `eval.episodes` = {e}: {len(g)} runs ({per_experiment})")
+    return md + [""]
+
+
+def _older_videos_md(loaded: Loaded, w: _Writer) -> list[str]:
+    """The runs left out for older stand-in videos (:func:`~dcs_torchrl.report.load.newest_stand_ins`)."""
+    md = ["## Runs left out: older stand-in videos", ""]
+    older = loaded.older_videos
+    if older.empty:
+        return md + ["None: no method's runs of a task mix versions of the stand-in videos.", ""]
+    w.csv("left_out_videos.csv", older)
+    md += ["Where one method's runs of a task in an experiment showed several versions of the embedded "
+           "stand-in videos, only those of the newest version are used; the others are left out, never "
+           "averaged in ([left_out_videos.csv](left_out_videos.csv)):", ""]
+    for (x, m, d, t, b), g in older.groupby(["experiment", "method", "domain", "task", "backgrounds"], sort=True):
+        md.append(f"- {x}, {m}, {d} {t}: {len(g)} runs on {b.removeprefix('stand-in ')}")
     return md + [""]
 
 
@@ -252,6 +268,9 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
         for (s, e), g in loaded.left_out.groupby(["steps", "episodes"], sort=True):
             print(f"left out {len(g)} runs with steps={s}, eval.episodes={e} (the report uses "
                   f"steps={loaded.budget[0]}, eval.episodes={loaded.budget[1]})", file=log)
+        if len(loaded.older_videos):
+            print(f"left out {len(loaded.older_videos)} runs on older stand-in videos than their method's "
+                  "other runs of the same task (report.md lists them)", file=log)
     report = Report(out=Path(out), loaded=loaded)
     report.out.mkdir(parents=True, exist_ok=True)
     w = _Writer(report)
@@ -260,11 +279,12 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
     inter = interactions_table(runs, expected_tasks(runs))
     md = ["# Distracting Control Suite: results report", "",
           f"Results directory: `{_shown_path(results_dir, report.out)}` (relative to this report) — {len(runs)} "
-          f"runs loaded, {len(loaded.left_out)} left out, {len(loaded.skipped)} files skipped "
+          f"runs loaded, {len(loaded.left_out) + len(loaded.older_videos)} left out, {len(loaded.skipped)} files skipped "
           "([all runs](runs.csv)).", "", *_stand_in_md(runs), _summary(runs), "", "## Skipped files", ""]
     md += [f"- `{s.path}`: {s.reason}" for s in loaded.skipped] or ["None."]
     md.append("")
     md += _left_out_md(loaded, w)
+    md += _older_videos_md(loaded, w)
     for name in REPORTED if experiment is None else (experiment,):
         md += [f"## {TITLES[name]}", ""]
         if name == "interactions":

@@ -9,6 +9,10 @@ The tables compare and average runs across cells (bold, mean over tasks, interac
 report uses one training length and evaluation count: the ``(steps, eval.episodes)`` of most
 runs in an experiment. Runs with other values are *left out* (:attr:`Loaded.left_out`), never
 averaged in; plain runs (experiment null) are in no table and always kept.
+
+Likewise a curve never averages scores on two versions of the embedded stand-in videos: where one
+method's runs of one task in one experiment showed several versions, only those of the newest are
+kept (:attr:`Loaded.older_videos` holds the others).
 """
 from __future__ import annotations
 
@@ -22,7 +26,8 @@ import pandas as pd
 from dcs_torchrl.report.experiments import AXES, METHODS
 from dcs_torchrl.results import JSON_TYPES, RESULTS_FILE, SCHEMA, shows_videos
 
-__all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run", "one_budget"]
+__all__ = ["RESULTS_FILE", "RUN_COLUMNS", "Skipped", "Loaded", "load_results", "parse_run", "one_budget",
+           "newest_stand_ins"]
 
 EXPERIMENT_NAMES = ("robustness", "training", "benchmarks", "interactions")
 EVAL_SPLITS = ("train", "val")
@@ -68,12 +73,15 @@ class Loaded:
         left_out: valid runs of experiments with another ``(steps, episodes)`` than ``budget``,
             same columns as ``runs``.
         budget: the ``(steps, episodes)`` of the experiment runs in ``runs`` (None: no such run).
+        older_videos: runs of the budget left out for an older version of the stand-in videos
+            than their method's runs of the same task and experiment showed (:func:`newest_stand_ins`).
     """
 
     runs: pd.DataFrame
     skipped: tuple[Skipped, ...]
     left_out: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(RUN_COLUMNS)))
     budget: tuple[int, int] | None = None
+    older_videos: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(RUN_COLUMNS)))
 
 
 class _Invalid(ValueError):
@@ -224,6 +232,31 @@ def one_budget(runs: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, tuple[in
     return runs[same | ~in_experiment], runs[~same & in_experiment], (int(budget[0]), int(budget[1]))
 
 
+def newest_stand_ins(runs: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Splits off runs that showed an older version of the stand-in videos than others of their group.
+
+    A group is one experiment's runs of one method on one task; a run's version is the newest it
+    showed (``backgrounds`` ``"stand-in v1+v3"``: 3). Runs that showed no stand-ins (no videos, or
+    a folder of the user's) are always kept, and so is a group's only version, however old.
+
+    Returns:
+        ``(kept, older)``.
+
+    Examples:
+        >>> runs = pd.DataFrame({"experiment": ["robustness"] * 4, "method": ["SAC"] * 4,
+        ...                      "domain": ["cartpole"] * 4, "task": ["swingup"] * 4,
+        ...                      "backgrounds": ["none", "stand-in v1", "stand-in v3", "folder"]})
+        >>> kept, older = newest_stand_ins(runs)
+        >>> kept["backgrounds"].tolist(), older["backgrounds"].tolist()
+        (['none', 'stand-in v3', 'folder'], ['stand-in v1'])
+    """
+    version = runs["backgrounds"].astype(str).str.extractall(r"v(\d+)")[0].astype(int).groupby(level=0).max()
+    version = version.reindex(runs.index)
+    newest = version.groupby([runs[k] for k in ("experiment", "method", "domain", "task")], dropna=False).transform("max")
+    older = version.notna() & (version < newest)
+    return runs[~older], runs[older]
+
+
 def load_results(root: str | Path) -> Loaded:
     """Reads every ``results.json`` below ``root`` (recursively).
 
@@ -270,5 +303,6 @@ def load_results(root: str | Path) -> Loaded:
     runs = pd.DataFrame(rows, columns=list(RUN_COLUMNS))
     runs = runs.astype({"seed": "int64", "steps": "int64", "score": "float64"}) if len(runs) else runs
     kept, left_out, budget = one_budget(runs)
+    kept, older = newest_stand_ins(kept)
     return Loaded(runs=kept.reset_index(drop=True), skipped=tuple(skipped),
-                  left_out=left_out.reset_index(drop=True), budget=budget)
+                  left_out=left_out.reset_index(drop=True), budget=budget, older_videos=older.reset_index(drop=True))

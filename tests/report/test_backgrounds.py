@@ -71,3 +71,32 @@ def test_report_says_when_runs_mix_versions_of_the_stand_in_videos():
     mixed = pd.DataFrame({"backgrounds": ["stand-in v1", "stand-in v2"]})
     assert "mix versions of them (v1, v2)" in stand_in_note(mixed)
     assert stand_in_note(pd.DataFrame({"backgrounds": ["none", "folder"]})) == ""
+
+
+def test_a_curve_never_averages_two_versions_of_the_stand_ins(tmp_path, capsys):
+    import json
+
+    import pandas as pd
+
+    # seed 0 of SAC+RAD swept again on version 3, seed 1 only on version 1; QT-Opt+RAD only on version 1
+    def put(score, version, **kw):
+        path = write_run(tmp_path / "runs", score, experiment="robustness", axis="background_blend", **kw)
+        doc = json.loads(path.read_text())
+        doc["eval_env"]["embedded_videos"] = version
+        path.write_text(json.dumps(doc))
+
+    put(400.0, 3, method="SAC+RAD", value=0.5, seed=0)
+    put(600.0, 1, method="SAC+RAD", value=0.5, seed=1)
+    put(500.0, 1, method="QT-Opt+RAD", value=0.5, seed=0)
+    write_run(tmp_path / "runs", 800.0, method="SAC+RAD", experiment="robustness", axis="camera", value=0.5, seed=1)
+    report = build_report(tmp_path / "runs", tmp_path / "out", "robustness")
+    assert "left out 1 runs on older stand-in videos" in capsys.readouterr().err
+    assert report.loaded.older_videos["score"].tolist() == [600.0]
+    curves = pd.read_csv(tmp_path / "out" / "tables" / "robustness_curves.csv")
+    at = curves[(curves.axis == "background_blend") & (curves.value == 0.5)]  # one task: its curve is the mean
+    assert dict(zip(at["method"], at["mean"])) == {"SAC+RAD": 400.0, "QT-Opt+RAD": 500.0}  # not (400 + 600) / 2
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "3 runs loaded, 1 left out" in md
+    assert "- robustness, SAC+RAD, cheetah run: 1 runs on v1" in md
+    assert pd.read_csv(tmp_path / "out" / "left_out_videos.csv")["seed"].tolist() == [1]
+    assert 800.0 in pd.read_csv(tmp_path / "out" / "runs.csv")["score"].tolist()  # no videos: kept

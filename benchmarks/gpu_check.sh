@@ -42,6 +42,8 @@ left() {  # left <most>: seconds to give the next step, at most <most>, so that 
   rest=$((rest < $1 ? rest : $1))
   echo $((rest > 1 ? rest : 1))
 }
+# the agents whose clean scores the loan compares across renderers (#35 item 6): the two first shipped
+export SCORED="sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch"
 MACHINE='nvidia-smi; lscpu | grep "Model name"
   python3 -c "import torch; print(torch.__version__, torch.version.cuda, torch.backends.cudnn.version())"
   python3 -c "from dcs_torchrl.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]"'
@@ -56,7 +58,7 @@ case $stage in
   quick)
     step machine 60 bash -c "$MACHINE"
     step test_cuda 240 python3 -m pytest -q -p no:cacheprovider tests/training/test_cuda.py tests/test_egl_devices.py tests/test_parallel.py
-    step renderer_scores 200 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda --agents sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch'
+    step renderer_scores 200 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 20 --device cuda --agents $SCORED'
     ;;
   speed)
     step gpu_speed 540 python3 benchmarks/gpu_speed.py
@@ -88,7 +90,7 @@ case $stage in
     # then the untimed ones together, with few threads each (on the first try, the suite's workers
     # at torch's 16 threads each left a run beside them at 24 frames/s)
     rest=$(left 600)
-    step renderer_scores "$rest" env OMP_NUM_THREADS=2 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda --agents sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch' &
+    step renderer_scores "$rest" env OMP_NUM_THREADS=2 bash -c 'cd benchmarks && python3 renderer_scores.py --episodes 10 --device cuda --agents $SCORED' &
     step suite "$rest" env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 12 &
     wait
     ;;

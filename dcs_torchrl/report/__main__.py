@@ -23,8 +23,7 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out if args.out is not None else args.results_dir / "report"
     report = build_report(args.results_dir, out, args.experiment, log=sys.stderr)
     loaded = report.loaded
-    print(f"{len(loaded.runs)} runs, {len(loaded.left_out) + len(loaded.older_videos)} left out, "
-          f"{len(loaded.skipped)} skipped; "
+    print(f"{len(loaded.runs)} runs, {loaded.n_left_out} left out, {len(loaded.skipped)} skipped; "
           f"report: {out / 'report.md'}")
     return 0
 

@@ -279,7 +279,7 @@ def build_report(results_dir: str | Path, out: str | Path, experiment: str | Non
     inter = interactions_table(runs, expected_tasks(runs))
     md = ["# Distracting Control Suite: results report", "",
           f"Results directory: `{_shown_path(results_dir, report.out)}` (relative to this report) — {len(runs)} "
-          f"runs loaded, {len(loaded.left_out) + len(loaded.older_videos)} left out, {len(loaded.skipped)} files skipped "
+          f"runs loaded, {loaded.n_left_out} left out, {len(loaded.skipped)} files skipped "
           "([all runs](runs.csv)).", "", *_stand_in_md(runs), _summary(runs), "", "## Skipped files", ""]
     md += [f"- `{s.path}`: {s.reason}" for s in loaded.skipped] or ["None."]
     md.append("")

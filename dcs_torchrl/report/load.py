@@ -83,6 +83,11 @@ class Loaded:
     budget: tuple[int, int] | None = None
     older_videos: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(RUN_COLUMNS)))
 
+    @property
+    def n_left_out(self) -> int:
+        """Valid runs not in ``runs``: another budget's and older stand-in videos'."""
+        return len(self.left_out) + len(self.older_videos)
+
 
 class _Invalid(ValueError):
     pass

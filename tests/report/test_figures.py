@@ -61,7 +61,5 @@ def test_a_title_of_several_lines_stays_clear_of_the_panels(results_dir, tmp_pat
     build_report(results_dir, tmp_path / "report")
     assert len(saved) == 3  # the robustness curves, the static and the dynamic benchmarks
     for fig in saved:
-        to_fig = fig.transFigure.inverted()
         assert fig.get_suptitle().count("\n") >= 3
-        title_bottom = to_fig.transform((0, fig._suptitle.get_window_extent().y0))[1]
-        assert all(to_fig.transform((0, ax.get_tightbbox().y1))[1] < title_bottom for ax in fig.axes)
+        assert _title_clear_of_panels(fig)

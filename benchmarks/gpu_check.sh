@@ -71,7 +71,7 @@ case $stage in
     ;;
   parallel)
     step parallel_speed 540 python3 benchmarks/parallel_speed.py --workers 16 --steps 100 --rounds 3 \
-      --only "one env" ParallelEnv ParallelSuiteEnv "ParallelSuiteEnv, unlocked" "16 processes"
+      --only "one env" ParallelEnv ParallelSuiteEnv "ParallelSuiteEnv, all in workers" "ParallelSuiteEnv, unlocked" "16 processes"
     ;;
   concurrent)
     step concurrent_runs 540 python3 benchmarks/concurrent_runs.py --runs 1 2 4 8

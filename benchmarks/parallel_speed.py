@@ -9,13 +9,13 @@ Paths (cartpole swingup by default, default render profile, seeded random action
   buffers; this process spin-polls its workers' done flags while they step);
 - ``ParallelEnv, pipes``: the same with ``use_buffers=False`` (results come back through the
   pipes, and this process sleeps in ``select`` until they do);
-- ``ParallelSuiteEnv``: the suite's parallel env (:class:`dcs_torchrl.ParallelSuiteEnv`);
-- ``ParallelSuiteEnv, unlocked``: the same workers, each sent its next action as soon as it is
+- ``ParallelSuiteEnv``: the suite's parallel env (:class:`dcs_torchrl.ParallelSuiteEnv`) as it
+  comes: its first env stepped in this process while n - 1 workers step theirs (``first_here``);
+- ``ParallelSuiteEnv, all in workers``: the same with ``first_here=False``: every env in a worker,
+  this process sleeping in ``select`` while they step;
+- ``ParallelSuiteEnv, unlocked``: every env in a worker, each sent its next action as soon as it is
   done instead of when both are (what lock-step costs; not an API: it is driven through the env's
   pipes here, one env's observation at a time, and its episodes' order depends on timing);
-- ``ParallelSuiteEnv + one here``: n - 1 workers, and one env stepped in this process while they
-  step theirs (one torch thread during the steps, as in a worker): no process waits to be woken
-  for the first env's turn (a probe of that design, driven through the env's internals; not an API);
 - ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling.
 
 First it prints the cores' own ceiling: n processes each running a one-thread float32 matmul at
@@ -119,7 +119,7 @@ class Unlocked:
     (random actions; a done episode resets at once): a round is ``n * steps`` single-env steps."""
 
     def __init__(self, factory, n: int, seed: int):
-        self.env = dcs.ParallelSuiteEnv(n, factory)
+        self.env = dcs.ParallelSuiteEnv(n, factory, first_here=False)
         self.env.set_seed(seed)
         self.env.reset()
         self.batch, self.generator = n, torch.Generator().manual_seed(seed)
@@ -156,47 +156,6 @@ class Unlocked:
         self.env.close()
 
 
-class OneHere:
-    """One env stepped in this process while a :class:`~dcs_torchrl.ParallelSuiteEnv` of ``n - 1``
-    workers steps the others (seeded as a batched env of n: each next env with what the last
-    ``set_seed`` returned); a batched step returns when this env's step and the workers' are done."""
-
-    def __init__(self, factory, n: int, seed: int):
-        if n < 2:
-            raise ValueError("the 'ParallelSuiteEnv + one here' path needs --workers >= 2.")
-        self.here, self.workers = factory(), dcs.ParallelSuiteEnv(n - 1, factory)
-        self.workers.set_seed(self.here.set_seed(seed))
-        self.td = self.here.reset()
-        self.workers.reset()
-        self.batch, self.generator = n, torch.Generator().manual_seed(seed)
-        spec = self.here.action_spec
-        self.low, self.high = spec.low, spec.high
-
-    def run(self, steps: int):
-        workers, threads = self.workers, torch.get_num_threads()
-        torch.set_num_threads(1)
-        wall, cpu = time.perf_counter(), time.process_time()
-        for _ in range(steps):
-            action = torch.rand((self.batch, *self.low.shape), generator=self.generator) * (self.high - self.low) + self.low
-            workers._buffers["action"]["action"].copy_(action[1:])
-            for pipe in workers._pipes:
-                pipe.send_bytes(parallel._STEP)
-            out, self.td = self.here.step_and_maybe_reset(self.td.set("action", action[0]))
-            workers._wait(range(workers.num_workers))
-            others = parallel._copy(workers._buffers["next"])
-            done = others["done"].reshape(workers.num_workers, -1).any(-1)
-            if done.any():
-                workers._command(parallel._RESET, done.nonzero().flatten().tolist())
-            torch.cat([out["next", "pixels"][None], others["pixels"]])  # the batch of observations
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        torch.set_num_threads(threads)
-        return wall, cpu
-
-    def close(self):
-        self.here.close()
-        self.workers.close()
-
-
 def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
     suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(dcs.ParallelSuiteEnv, render_threads=k)
              for k in render_threads}
@@ -205,8 +164,8 @@ def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
         "ParallelEnv": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn"), seed),
         "ParallelEnv, pipes": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn", use_buffers=False), seed),
         "ParallelSuiteEnv": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory), seed),
+        "ParallelSuiteEnv, all in workers": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory, first_here=False), seed),
         "ParallelSuiteEnv, unlocked": lambda: Unlocked(factory, n, seed),
-        "ParallelSuiteEnv + one here": lambda: OneHere(factory, n, seed),
         **{name: functools.partial(lambda make: Stepped(make(n, factory), seed), make) for name, make in suite.items()},
         f"{n} processes": lambda: Processes(factory, n, seed),
     }

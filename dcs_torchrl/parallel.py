@@ -1,4 +1,4 @@
-"""The suite's parallel env: n TorchRL envs, one per spawned process, stepped side by side.
+"""The suite's parallel env: n TorchRL envs, the first here and one per spawned process for the rest, stepped side by side.
 
 TorchRL's ``ParallelEnv`` scales poorly with the suite's envs, whose step is one render of a
 few milliseconds: its main process spin-polls shared-memory flags while the workers step (one
@@ -7,14 +7,20 @@ of TensorDict bookkeeping per batched step, while the workers wait (docs/perform
 envs"). :class:`ParallelSuiteEnv` keeps what makes ``ParallelEnv`` fast (observations written
 into shared memory, not pickled) and waits the way a pipe waits: each worker steps its own env
 exactly as a single env is stepped and writes its ``"next"`` entries into one shared
-TensorDict; a byte on a pipe says "step", another says "done", and the main process sleeps in
-``select`` in between.
+TensorDict; a byte on a pipe says "step", another says "done", and the main process steps its own
+env (``first_here``) or sleeps in ``select`` in between.
 
 Each worker's env is the env its factory builds, stepped and reset only when this env is, so an
 episode through :class:`ParallelSuiteEnv` is the episode of one env with that worker's seed
 (``tests/test_parallel.py``). Seeding follows TorchRL's batched envs: worker ``i`` gets the seed
 that worker ``i - 1``'s ``set_seed`` returns. This process's torch threads are left as they are
 (``ParallelEnv`` lowers them while its workers live); each worker runs one torch thread.
+
+With two or more envs the first is built and stepped in this process (``first_here``), by the
+same loop a worker runs and with one torch thread as a worker's, while the other workers step
+theirs: the process that ends a batched step is then already awake when its own env's step is done.
+On two cores that gave about 1.5x one env where every env in a worker gives about 1.4x (the
+medians of five runs, docs/performance.md, "Parallel envs").
 """
 from __future__ import annotations
 
@@ -30,7 +36,7 @@ from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
-from dcs_torchrl.egl_devices import egl_device_environment, render_device_indices
+from dcs_torchrl.egl_devices import egl_device_environment, process_render_device, render_device_indices
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -40,12 +46,13 @@ _POLL_S = 1.0  # how often a wait checks that the workers are alive
 
 
 class ParallelSuiteEnv(EnvBase):
-    """``num_workers`` envs from ``create_env_fn``, each in its own spawned process; batch size ``[num_workers]``.
+    """``num_workers`` envs from ``create_env_fn``, batch size ``[num_workers]``: the first in this
+    process (``first_here``), the others each in its own spawned process.
 
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
     a render (the suite's): the same specs, seeding and partial resets, usable with TorchRL's
-    collectors, ``rollout`` and the suite's evaluation, at close to n times one env's speed on n
-    idle cores (``benchmarks/parallel_speed.py``).
+    collectors, ``rollout`` and the suite's evaluation; about 1.5x one env's speed on two idle
+    cores, where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
 
     Args:
         num_workers (int): the number of envs, each in its own process.
@@ -57,7 +64,8 @@ class ParallelSuiteEnv(EnvBase):
     Keyword Args:
         render_threads (int, optional): Mesa llvmpipe raster threads per worker (``LP_NUM_THREADS``;
             0: each worker renders in its own thread); ``None`` (default) keeps the environment's
-            setting or Mesa's default. No effect on a GPU's EGL driver.
+            setting or Mesa's default. No effect on a GPU's EGL driver, nor on the first env with
+            ``first_here`` (it renders with this process's setting).
         render_devices (list, optional): the GPU each worker renders on, worker ``i`` on
             ``render_devices[i % len(render_devices)]``, so that the workers of one run spread over
             the GPUs of a node: an EGL device index (``MUJOCO_EGL_DEVICE_ID``'s, not a CUDA
@@ -66,6 +74,12 @@ class ParallelSuiteEnv(EnvBase):
             ``None`` (default): the device this process's environment names (dm_control's
             default, the first). A device the machine does not have raises ``ValueError`` here,
             naming the machine's EGL devices.
+        first_here (bool, optional): build and step the first env in this process, while the other
+            ``num_workers - 1`` step theirs in their own processes; ``False``: every env in a worker.
+            The episodes are the same either way. ``None`` (default): ``True`` for two or more envs
+            whose first renders on this process's EGL device (``render_devices`` ``None`` or its
+            first entry this process's device), else ``False``. ``True`` with another device first
+            raises ``ValueError`` (dm_control picks a process's EGL device once, at import).
         mp_start_method (str): ``"spawn"`` (default; EGL contexts do not survive ``fork``).
 
     Examples:
@@ -79,7 +93,8 @@ class ParallelSuiteEnv(EnvBase):
     """
 
     def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
-                 render_devices: Sequence[int] | None = None, mp_start_method: str = "spawn"):
+                 render_devices: Sequence[int] | None = None, first_here: bool | None = None,
+                 mp_start_method: str = "spawn"):
         if not isinstance(num_workers, int) or isinstance(num_workers, bool) or num_workers < 1:
             raise ValueError(f"num_workers must be an int >= 1, got {num_workers!r}.")
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
@@ -88,15 +103,32 @@ class ParallelSuiteEnv(EnvBase):
         devices = render_device_indices(render_devices)
         if not callable(create_env_fn):
             raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
+        here_renders = devices is None or devices[0] == process_render_device()
+        if first_here is None:
+            first_here = num_workers >= 2 and here_renders
+        elif not isinstance(first_here, bool):
+            raise TypeError(f"first_here must be True, False or None (default: True for two or more envs), got {first_here!r}.")
+        if first_here and not here_renders:
+            raise ValueError(
+                f"first_here=True renders the first env in this process, on its EGL device {process_render_device()}, "
+                f"not render_devices[0] = {devices[0]}: pass first_here=False, or set {_EGL_DEVICE} before importing "
+                "dm_control."
+            )
         super().__init__(batch_size=[num_workers], device="cpu")
         self.num_workers = num_workers
+        self.first_here = first_here
         self._render_devices = devices
-        self._pipes: list[Connection] = []
-        self._procs: list[mp.Process] = []
+        self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
+        self._procs: list[mp.Process | None] = []
+        self._here: _Stepper | None = None
         self.is_closed = True
         ctx = mp.get_context(mp_start_method)
         try:
-            for index in range(num_workers):
+            if first_here:
+                self._here = _Stepper(create_env_fn())
+                self._pipes.append(None)
+                self._procs.append(None)
+            for index in range(len(self._pipes), num_workers):
                 here, there = ctx.Pipe()
                 proc = ctx.Process(target=_work, args=(create_env_fn, there, index, render_threads), daemon=True,
                                    name=f"ParallelSuiteEnv-{index}")
@@ -107,10 +139,12 @@ class ParallelSuiteEnv(EnvBase):
                 self._procs.append(proc)
             self.is_closed = False
             self._wait(range(num_workers))  # every env built (or the first error raised)
-            self._set_specs(self._pipes[0].recv())
+            self._set_specs(self._here.specs() if first_here else self._pipes[0].recv())
             self._buffers = _shared_buffers(self)
-            for pipe in self._pipes:
+            for pipe in self._remote(range(num_workers)):
                 pipe.send(self._buffers)
+            if first_here:
+                self._here.attach(self._buffers, 0)
             self._wait(range(num_workers))
         except BaseException:
             self.close(raise_if_closed=False)
@@ -141,6 +175,9 @@ class ParallelSuiteEnv(EnvBase):
         """Seeds worker 0 with ``seed`` and each next worker with what the previous one's
         ``set_seed`` returns (TorchRL's batched envs); returns the last worker's return."""
         for index, pipe in enumerate(self._pipes):
+            if pipe is None:
+                seed = self._here.env.set_seed(seed, static_seed=static_seed)
+                continue
             pipe.send_bytes(_SEED)
             pipe.send((seed, static_seed))
             seed = self._receive(index)
@@ -155,17 +192,20 @@ class ParallelSuiteEnv(EnvBase):
                 raise RuntimeError("ParallelSuiteEnv is closed already.")
             return
         self.is_closed = True
-        for pipe in self._pipes:
+        pipes, procs = [p for p in self._pipes if p is not None], [p for p in self._procs if p is not None]
+        for pipe in pipes:
             try:
                 pipe.send_bytes(_CLOSE)
             except (BrokenPipeError, OSError):
                 pass
-        for proc in self._procs:
+        if self._here is not None:
+            self._here.env.close()
+        for proc in procs:
             proc.join(timeout=10)
             if proc.is_alive():
                 proc.terminate()
                 proc.join(timeout=5)
-        for pipe in self._pipes:
+        for pipe in pipes:
             pipe.close()
 
     def __del__(self):
@@ -173,17 +213,34 @@ class ParallelSuiteEnv(EnvBase):
             self.close(raise_if_closed=False)
 
     # ------------------------------------------------------------ messaging
+    def _remote(self, workers) -> list[Connection]:
+        """The pipes of ``workers`` that run in their own process."""
+        return [self._pipes[i] for i in workers if self._pipes[i] is not None]
+
     def _command(self, command: bytes, workers) -> None:
         workers = list(workers)
         if self.is_closed:
             raise RuntimeError("ParallelSuiteEnv is closed: build a new one.")
-        for index in workers:
-            self._pipes[index].send_bytes(command)
+        for pipe in self._remote(workers):
+            pipe.send_bytes(command)
+        if self._here is not None and 0 in workers:  # the first env, while the workers step theirs
+            threads = torch.get_num_threads()
+            torch.set_num_threads(1)  # as in a worker: torch's idle intra-op threads spin on the workers' cores
+            try:
+                self._here.run(command)
+            except BaseException as error:
+                try:
+                    self._wait(workers)  # their answers, so that the next command finds none pending
+                except RuntimeError as also:  # a worker failed too (and closed this env): the first env's error first
+                    error.add_note(f"Meanwhile: {also}")
+                raise error
+            finally:
+                torch.set_num_threads(threads)
         self._wait(workers)
 
     def _wait(self, workers) -> None:
         """Sleeps until every worker in ``workers`` has answered; raises with a failed worker's traceback."""
-        pending = {self._pipes[i]: i for i in workers}
+        pending = {self._pipes[i]: i for i in workers if self._pipes[i] is not None}
         while pending:
             ready = wait(list(pending), timeout=_POLL_S)
             if not ready:
@@ -245,49 +302,67 @@ def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, re
     if render_threads is not None:  # read by Mesa's llvmpipe at the first GL context, which comes later
         os.environ["LP_NUM_THREADS"] = str(render_threads)
     try:
-        env = create_env_fn()
+        stepper = _Stepper(create_env_fn())
         pipe.send_bytes(_OK)
         if index == 0:
-            pipe.send({name: getattr(env, name) for name in (
-                "full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec")})
-        buffers = pipe.recv()
-        action, out = buffers["action"][index], buffers["next"][index]
-        action_keys = list(env.action_keys)
-        out_keys = list(out.keys(True, True))
-        reset_keys = [k for k in out_keys if k in set(env.observation_keys) | set(env.done_keys)]
+            pipe.send(stepper.specs())
+        stepper.attach(pipe.recv(), index)
         pipe.send_bytes(_OK)
     except BaseException:
         _report(pipe)
         return
-    td = None
     while True:
         try:
             command = pipe.recv_bytes()
         except (EOFError, OSError):  # the main process is gone
             break
+        if command == _CLOSE:
+            break
         try:
-            if command == _STEP:
-                if td is None:
-                    raise RuntimeError("step before reset: call env.reset() first.")
-                for key in action_keys:
-                    td.set(key, action.get(key).clone())
-                td = env.step(td).get("next")
-                out.update_(td.select(*out_keys))
-                pipe.send_bytes(_OK)
-            elif command == _RESET:
-                td = env.reset()
-                out.update_(td.select(*reset_keys))
-                pipe.send_bytes(_OK)
-            elif command == _SEED:
+            if command == _SEED:
                 seed, static_seed = pipe.recv()
-                new_seed = env.set_seed(seed, static_seed=static_seed)
+                new_seed = stepper.env.set_seed(seed, static_seed=static_seed)
                 pipe.send_bytes(_OK)
                 pipe.send(new_seed)
-            elif command == _CLOSE:
-                break
+            else:
+                stepper.run(command)
+                pipe.send_bytes(_OK)
         except BaseException:
             _report(pipe)
-    env.close()
+    stepper.env.close()
+
+
+class _Stepper:
+    """One env stepped and reset on command, reading its action from and writing its results to
+    its row of the shared buffers: what a worker runs, and this process for ``first_here``."""
+
+    def __init__(self, env: EnvBase):
+        self.env, self.td = env, None
+
+    def specs(self) -> dict:
+        return {name: getattr(self.env, name) for name in (
+            "full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec")}
+
+    def attach(self, buffers: TensorDictBase, index: int) -> None:
+        self.action, self.out = buffers["action"][index], buffers["next"][index]
+        self.action_keys = list(self.env.action_keys)
+        self.out_keys = list(self.out.keys(True, True))
+        kept = set(self.env.observation_keys) | set(self.env.done_keys)
+        self.reset_keys = [k for k in self.out_keys if k in kept]
+
+    def run(self, command: bytes) -> None:
+        if command == _STEP:
+            if self.td is None:
+                raise RuntimeError("step before reset: call env.reset() first.")
+            for key in self.action_keys:
+                self.td.set(key, self.action.get(key).clone())
+            self.td = self.env.step(self.td).get("next")
+            self.out.update_(self.td.select(*self.out_keys))
+        elif command == _RESET:
+            self.td = self.env.reset()
+            self.out.update_(self.td.select(*self.reset_keys))
+        else:
+            raise ValueError(f"unknown command {command!r}")
 
 
 def _report(pipe: Connection) -> None:

@@ -13,7 +13,7 @@ from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import ParallelSuiteEnv, make_env
-from dcs_torchrl.egl_devices import egl_devices
+from dcs_torchrl.egl_devices import egl_devices, process_render_device
 
 EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
 SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True)
@@ -46,9 +46,11 @@ def _one_env_run(seed: int, actions: torch.Tensor) -> list:
     return out
 
 
-def test_each_worker_runs_the_episodes_of_one_env_with_its_seed():
+@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here):
     n, steps = 2, 2 * EPISODE + 3  # across an episode end and a reset
-    env = ParallelSuiteEnv(n, FACTORY)
+    env = ParallelSuiteEnv(n, FACTORY, first_here=first_here)
+    assert [pipe is None for pipe in env._pipes] == [first_here, False]
     env.set_seed(7)
     actions = _actions(steps, n)
     td, batched = env.reset(), []
@@ -64,19 +66,22 @@ def test_each_worker_runs_the_episodes_of_one_env_with_its_seed():
     assert not torch.equal(batched[0]["pixels"][0], batched[0]["pixels"][1])  # workers differ
 
 
-def test_specs_partial_reset_and_a_collector():
-    env = ParallelSuiteEnv(2, FACTORY)
+@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+def test_specs_partial_reset_and_a_collector(first_here):
+    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
     check_env_specs(env, seed=0)
     assert env.batch_size == (2,) and env.observation_spec["pixels"].shape == (2, 32, 32, 3)
     env.set_seed(0)
     td = env.reset()
     first = td["pixels"].clone()
-    td = env.step(td.set("action", _actions(1, 2)[0]))["next"]
-    stepped = td["pixels"].clone()
-    td["_reset"] = torch.tensor([[True], [False]])
-    td = env.reset(td)
-    assert not torch.equal(td["pixels"][0], stepped[0]) and torch.equal(td["pixels"][1], stepped[1])
-    assert not torch.equal(td["pixels"][0], first[0])  # a new episode: a new scene
+    for reset in (0, 1):  # the first env (here with first_here) alone, then the second alone
+        td = env.step(td.set("action", _actions(1, 2)[0]))["next"]
+        stepped = td["pixels"].clone()
+        td["_reset"] = torch.tensor([[reset == 0], [reset == 1]])
+        td = env.reset(td)
+        assert not torch.equal(td["pixels"][reset], stepped[reset]), reset
+        assert torch.equal(td["pixels"][1 - reset], stepped[1 - reset]), reset
+        assert not torch.equal(td["pixels"][reset], first[reset])  # a new episode: a new scene
     collector = Collector(env, None, frames_per_batch=4, total_frames=8)
     batches = [b for b in collector]
     assert [tuple(b.batch_size) for b in batches] == [(2, 2), (2, 2)]
@@ -88,12 +93,49 @@ def test_this_processes_threads_are_left_alone():
     threads = torch.get_num_threads()
     env = ParallelSuiteEnv(2, FACTORY)
     assert torch.get_num_threads() == threads
+    env.set_seed(0)
+    env.rollout(2)  # its first env stepped here, with one thread meanwhile
+    assert torch.get_num_threads() == threads
     env.close()
     assert torch.get_num_threads() == threads
 
 
+def test_first_here_by_default_for_two_envs_on_this_processes_device():
+    one, two, on_0 = (ParallelSuiteEnv(1, FACTORY), ParallelSuiteEnv(2, FACTORY),
+                      ParallelSuiteEnv(2, FACTORY, render_devices=[0]))
+    assert (one.first_here, two.first_here, on_0.first_here) == (False, True, process_render_device() == 0)
+    assert one._procs[0] is not None and two._procs[0] is None
+    for env in (one, two, on_0):
+        env.close()
+    with pytest.raises(TypeError, match="first_here must be True, False or None"):
+        ParallelSuiteEnv(2, FACTORY, first_here="yes")
+
+
+def test_first_here_fails_in_this_process_and_refuses_another_render_device(monkeypatch):
+    """With first_here, the first env's errors are raised here as they are, the workers' as before;
+    its env can only render on this process's EGL device."""
+    env = ParallelSuiteEnv(2, FACTORY, first_here=True)
+    with pytest.raises(RuntimeError, match="^step before reset: call env.reset") as raised:
+        env.step(env.full_action_spec.zero())
+    assert "Meanwhile: ParallelSuiteEnv worker 1 failed" in raised.value.__notes__[0]  # the other env's too
+    env.close(raise_if_closed=False)
+    with pytest.raises(RuntimeError, match="(?s)worker 1 failed.*this env cannot be built"):
+        ParallelSuiteEnv(2, _broken_env_in_a_worker, first_here=True)
+    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "5")  # as if this process rendered on a sixth GPU
+    with pytest.raises(ValueError, match="first_here=True renders the first env in this process, on its EGL device 5, "
+                                         "not render_devices\\[0\\] = 0: pass first_here=False"):
+        ParallelSuiteEnv(2, FACTORY, first_here=True, render_devices=[0])
+
+
 def _broken_env():
     raise ValueError("this env cannot be built")
+
+
+def _broken_env_in_a_worker():
+    import multiprocessing
+    if multiprocessing.current_process().name != "MainProcess":
+        raise ValueError("this env cannot be built")
+    return FACTORY()
 
 
 def test_bad_input_and_failing_workers_name_the_fix():
@@ -121,7 +163,7 @@ def test_bad_input_and_failing_workers_name_the_fix():
 def test_workers_end_when_the_process_that_made_them_is_killed(tmp_path):
     script = (
         "import functools, os, sys, dcs_torchrl as dcs\n"
-        "env = dcs.ParallelSuiteEnv(2, functools.partial(dcs.make_env, 'cartpole', 'swingup'))\n"
+        "env = dcs.ParallelSuiteEnv(2, functools.partial(dcs.make_env, 'cartpole', 'swingup'), first_here=False)\n"
         "print(' '.join(str(p.pid) for p in env._procs), flush=True)\n"
         "sys.stdin.read()\n"
     )

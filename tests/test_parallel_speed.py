@@ -8,7 +8,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import parallel_speed  # noqa: E402
 
-PATHS = ["one env", "ParallelSuiteEnv", "ParallelSuiteEnv + one here", "2 processes"]
+PATHS = ["one env", "ParallelSuiteEnv", "ParallelSuiteEnv, all in workers", "2 processes"]
 
 
 def test_the_benchmark_prints_the_ceiling_and_a_row_per_path(capsys):

@@ -82,8 +82,8 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
             row[0].set_ylabel(YLABEL.replace("tasks", f"{n_tasks} tasks") if n_tasks > 1 else "mean episode return")
         else:
             row[0].set_ylabel(f"{task}\nmean episode return")
-    styles = [Line2D([], [], color="k", ls=LINESTYLES[False], label="static"),
-              Line2D([], [], color="k", ls=LINESTYLES[True], label="dynamic")]
+    drawn = sorted({bool(d) for d in curves["dynamic"].dropna()}) if len(curves) else [False, True]
+    styles = [Line2D([], [], color="k", ls=LINESTYLES[d], label="dynamic" if d else "static") for d in drawn]
     if (curves["blend"] == BLEND_2021).any():
         styles += [Line2D([], [], color="k", marker=BLEND_MARKERS[b], ms=5, lw=0, label=label)
                    for b, label in (("paper", "blend as the paper"), (BLEND_2021, "blend as the 2021 code"))]

@@ -127,10 +127,10 @@ def make_pixel_env(
     worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
 
     One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several
-    run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (spawned workers, this process sleeping
-    while they step). ``render_device`` (an EGL device index, :func:`render_device`): the
-    device every env renders on; one env that must render on another device than this
-    process's runs in a worker too.
+    run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (the first stepped in this process while
+    spawned workers step the others). ``render_device`` (an EGL device index, :func:`render_device`): the
+    device every env renders on; envs that must render on another device than this process's
+    all run in workers.
     """
     if num_workers < 1:
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")

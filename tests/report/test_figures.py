@@ -1,4 +1,4 @@
-"""The benchmark figure's legend names the markers it drew, and only those."""
+"""The figures' legends name the markers and line styles they drew, and only those."""
 from synthetic_results import write_run
 
 from dcs_torchrl.report import figures
@@ -63,3 +63,25 @@ def test_a_title_of_several_lines_stays_clear_of_the_panels(results_dir, tmp_pat
     for fig in saved:
         assert fig.get_suptitle().count("\n") >= 3
         assert _title_clear_of_panels(fig)
+
+
+def test_the_curves_legend_names_only_the_settings_drawn(results_dir, tmp_path, monkeypatch):
+    # the robustness command's quick sweep is static only: no "dynamic" line style to name
+    for value, score in ((0.0, 800.0), (0.5, 400.0), (1.0, 100.0)):
+        write_run(results_dir, score, method="SAC+RAD", domain="cartpole", task="swingup",
+                  experiment="robustness", axis="camera", value=value)
+    saved = []
+    monkeypatch.setattr(figures, "_save", lambda fig, path: saved.append(fig) or path)
+    build_report(results_dir, tmp_path / "static")
+    assert _curves_legend(saved) == ["SAC+RAD", "static"]
+    for value, score in ((0.5, 300.0), (1.0, 80.0)):
+        write_run(results_dir, score, method="SAC+RAD", domain="cartpole", task="swingup",
+                  experiment="robustness", axis="camera", value=value, dynamic=True)
+    build_report(results_dir, tmp_path / "both")
+    assert _curves_legend(saved) == ["SAC+RAD", "static", "dynamic"]
+
+
+def _curves_legend(saved: list) -> list[str]:
+    """The legend of the last robustness-curves figure saved."""
+    [*_, fig] = [f for f in saved if f.get_suptitle().startswith("Trained without distractions")]
+    return [t.get_text() for t in fig.legends[0].get_texts()]

@@ -116,7 +116,6 @@ class ParallelSuiteEnv(EnvBase):
             )
         super().__init__(batch_size=[num_workers], device="cpu")
         self.num_workers = num_workers
-        self.first_here = first_here
         self._render_devices = devices
         self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
         self._procs: list[mp.Process | None] = []
@@ -149,6 +148,11 @@ class ParallelSuiteEnv(EnvBase):
         except BaseException:
             self.close(raise_if_closed=False)
             raise
+
+    @property
+    def first_here(self) -> bool:
+        """Whether the first env is stepped in this process (see ``first_here`` above)."""
+        return self._here is not None
 
     # ------------------------------------------------------------------ set-up
     def _set_specs(self, specs: dict) -> None:

@@ -11,12 +11,17 @@ Paths (cartpole swingup by default, default render profile, seeded random action
   pipes, and this process sleeps in ``select`` until they do);
 - ``ParallelSuiteEnv``: the suite's parallel env (:class:`dcs_torchrl.ParallelSuiteEnv`) as it
   comes: its first env stepped in this process while n - 1 workers step theirs (``first_here``);
+- ``ParallelSuiteEnv, spin_s=0``: the same, each waiting process sleeping in ``select`` at once
+  instead of polling its pipes for ``spin_s`` (3 ms) first;
 - ``ParallelSuiteEnv, all in workers``: the same with ``first_here=False``: every env in a worker,
   this process sleeping in ``select`` while they step;
 - ``ParallelSuiteEnv, unlocked``: every env in a worker, each sent its next action as soon as it is
   done instead of when both are (what lock-step costs; not an API: it is driven through the env's
   pipes here, one env's observation at a time, and its episodes' order depends on timing);
-- ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling.
+- ``n processes``: n independent processes stepping one env each, nothing shared: the ceiling;
+- with ``--inline``, ``one env`` and ``ParallelSuiteEnv`` again, each in a process of its own
+  started with ``LP_NUM_THREADS=0`` (Mesa's llvmpipe renders in the calling thread, in that process
+  and its workers: no raster threads), to weigh Mesa's setting against its default.
 
 First it prints the cores' own ceiling: n processes each running a one-thread float32 matmul at
 once, against one alone (about n on n real, idle cores; less where the cores are shared or busy).
@@ -114,6 +119,48 @@ class Stepped:
         self.env.close()
 
 
+def _driver(make, pipe) -> None:
+    """A process running one path (``make()``) on command: the number of steps in, (wall, CPU) out."""
+    runner = make()
+    pipe.send(runner.batch)
+    while (steps := pipe.recv()) is not None:
+        pipe.send(runner.run(steps))
+    runner.close()
+
+
+class InProcess:
+    """A path run in a spawned process whose environment adds ``variables`` from its start (Mesa
+    reads ``LP_NUM_THREADS`` when dm_control first loads EGL, before any code of the path runs)."""
+
+    def __init__(self, make, variables: dict[str, str]):
+        self.pipe, there = mp.get_context("spawn").Pipe()
+        before = dict(os.environ)
+        os.environ.update(variables)
+        try:
+            self.proc = mp.get_context("spawn").Process(target=_driver, args=(make, there), daemon=False)
+            self.proc.start()
+        finally:
+            os.environ.clear()
+            os.environ.update(before)
+        self.batch = self.pipe.recv()
+
+    def run(self, steps: int):
+        self.pipe.send(steps)
+        return self.pipe.recv()
+
+    def close(self):
+        self.pipe.send(None)
+        self.proc.join(timeout=60)
+
+
+def _one(factory, seed: int) -> Stepped:
+    return Stepped(factory(), seed)
+
+
+def _suite(factory, n: int, seed: int, **options) -> Stepped:
+    return Stepped(dcs.ParallelSuiteEnv(n, factory, **options), seed)
+
+
 class Unlocked:
     """A :class:`~dcs_torchrl.ParallelSuiteEnv` whose workers each step as soon as they are done
     (random actions; a done episode resets at once): a round is ``n * steps`` single-env steps."""
@@ -156,18 +203,25 @@ class Unlocked:
         self.env.close()
 
 
-def paths(factory, n: int, seed: int, render_threads: list[int]) -> dict:
+def paths(factory, n: int, seed: int, render_threads: list[int], inline: bool = False) -> dict:
     suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(dcs.ParallelSuiteEnv, render_threads=k)
              for k in render_threads}
+    lp0 = {"LP_NUM_THREADS": "0"}
+    inline_paths = {
+        "one env, LP_NUM_THREADS=0": lambda: InProcess(functools.partial(_one, factory, seed), lp0),
+        "ParallelSuiteEnv, LP_NUM_THREADS=0": lambda: InProcess(functools.partial(_suite, factory, n, seed), lp0),
+    } if inline else {}
     return {
-        "one env": lambda: Stepped(factory(), seed),
+        "one env": lambda: _one(factory, seed),
         "ParallelEnv": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn"), seed),
         "ParallelEnv, pipes": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn", use_buffers=False), seed),
-        "ParallelSuiteEnv": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory), seed),
+        "ParallelSuiteEnv": lambda: _suite(factory, n, seed),
+        "ParallelSuiteEnv, spin_s=0": lambda: _suite(factory, n, seed, spin_s=0),
         "ParallelSuiteEnv, all in workers": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory, first_here=False), seed),
         "ParallelSuiteEnv, unlocked": lambda: Unlocked(factory, n, seed),
         **{name: functools.partial(lambda make: Stepped(make(n, factory), seed), make) for name, make in suite.items()},
         f"{n} processes": lambda: Processes(factory, n, seed),
+        **inline_paths,
     }
 
 
@@ -223,10 +277,12 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--benchmarks", nargs="+", default=["none", "medium"], help="each dynamic")
     parser.add_argument("--render-threads", type=int, nargs="*", default=[],
                         help="also ParallelSuiteEnv with these render_threads (Mesa llvmpipe threads per worker)")
+    parser.add_argument("--inline", action="store_true",
+                        help="also one env and ParallelSuiteEnv in processes started with LP_NUM_THREADS=0")
     parser.add_argument("--only", nargs="+", help="path names to run (default: all)")
     parser.add_argument("--ceiling-rounds", type=int, default=3, help="rounds of the cores' ceiling (0: skip it)")
     args = parser.parse_args(argv)
-    known = paths(None, args.workers, seed=0, render_threads=args.render_threads)
+    known = paths(None, args.workers, seed=0, render_threads=args.render_threads, inline=args.inline)
     unknown = sorted(set(args.only or ()) - set(known))
     if unknown:
         parser.error(f"unknown path(s) {unknown}; the paths: {list(known)}")
@@ -240,7 +296,7 @@ def main(argv: list[str] | None = None) -> dict:
     results = {}
     for benchmark in args.benchmarks:
         factory = functools.partial(dcs.make_env, domain, task, benchmark=benchmark, dynamic=True)
-        made = paths(factory, args.workers, seed=0, render_threads=args.render_threads)
+        made = paths(factory, args.workers, seed=0, render_threads=args.render_threads, inline=args.inline)
         runners = {name: make() for name, make in made.items() if not args.only or name in args.only}
         try:
             rates = results[benchmark] = interleaved(runners, args.steps, args.rounds)

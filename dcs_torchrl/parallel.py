@@ -8,7 +8,8 @@ envs"). :class:`ParallelSuiteEnv` keeps what makes ``ParallelEnv`` fast (observa
 into shared memory, not pickled) and waits the way a pipe waits: each worker steps its own env
 exactly as a single env is stepped and writes its ``"next"`` entries into one shared
 TensorDict; a byte on a pipe says "step", another says "done", and the main process steps its own
-env (``first_here``) or sleeps in ``select`` in between.
+env (``first_here``) in between; a process that waits polls its pipes for ``spin_s`` (3 ms) and
+then sleeps in ``select``.
 
 Each worker's env is the env its factory builds, stepped and reset only when this env is, so an
 episode through :class:`ParallelSuiteEnv` is the episode of one env with that worker's seed
@@ -20,12 +21,14 @@ With two or more envs the first is built and stepped in this process (``first_he
 same loop a worker runs and with one torch thread as a worker's, while the other workers step
 theirs: the process that ends a batched step is then already awake when its own env's step is done.
 On two cores that gave about 1.5x one env where every env in a worker gives about 1.4x (the
-medians of five runs, docs/performance.md, "Parallel envs").
+medians of five runs); polling before sleeping then added 0.03-0.14 (docs/performance.md,
+"Parallel envs").
 """
 from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
@@ -43,6 +46,9 @@ __all__ = ["ParallelSuiteEnv"]
 _STEP, _RESET, _SEED, _CLOSE = b"s", b"r", b"e", b"c"
 _OK, _FAILED = b"k", b"f"
 _POLL_S = 1.0  # how often a wait checks that the workers are alive
+#: Default seconds a process polls its pipes before it sleeps (``spin_s``): a sleeping process
+#: takes 0.1-0.3 ms to wake on a virtual machine's idle core, twice a step.
+SPIN_S = 0.003
 
 
 class ParallelSuiteEnv(EnvBase):
@@ -52,7 +58,7 @@ class ParallelSuiteEnv(EnvBase):
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
     a render (the suite's): the same specs, seeding and partial resets, usable with TorchRL's
     collectors, ``rollout`` and the suite's evaluation; about 1.5x one env's speed on two idle
-    cores, where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
+    cores (1.47-1.59), where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
 
     Args:
         num_workers (int): the number of envs, each in its own process.
@@ -74,6 +80,11 @@ class ParallelSuiteEnv(EnvBase):
             ``None`` (default): the device this process's environment names (dm_control's
             default, the first). A device the machine does not have raises ``ValueError`` here,
             naming the machine's EGL devices.
+        spin_s (float): seconds each waiting process polls its pipes (busy-waits) before it sleeps
+            in ``select``: a worker after its step, this process for the workers' answers. A
+            woken process starts 0.1-0.3 ms late on a virtual machine; a polling one at once, for
+            a core's time while it polls. Default :data:`SPIN_S` (3 ms: 1.45x -> 1.59x one env on
+            two cores, docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
         first_here (bool, optional): build and step the first env in this process, while the other
             ``num_workers - 1`` step theirs in their own processes; ``False``: every env in a worker.
             The episodes are the same either way. ``None`` (default): ``True`` for two or more envs
@@ -93,13 +104,15 @@ class ParallelSuiteEnv(EnvBase):
     """
 
     def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
-                 render_devices: Sequence[int] | None = None, first_here: bool | None = None,
-                 mp_start_method: str = "spawn"):
+                 render_devices: Sequence[int] | None = None, spin_s: float = SPIN_S,
+                 first_here: bool | None = None, mp_start_method: str = "spawn"):
         if not isinstance(num_workers, int) or isinstance(num_workers, bool) or num_workers < 1:
             raise ValueError(f"num_workers must be an int >= 1, got {num_workers!r}.")
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
             raise ValueError(f"render_threads must be an int >= 0 (0: render in the worker's own thread) or None, "
                              f"got {render_threads!r}.")
+        if isinstance(spin_s, bool) or not isinstance(spin_s, (int, float)) or not 0 <= spin_s < _POLL_S:
+            raise ValueError(f"spin_s must be seconds in [0, {_POLL_S}) (0: sleep at once), got {spin_s!r}.")
         devices = render_device_indices(render_devices)
         if not callable(create_env_fn):
             raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
@@ -117,6 +130,7 @@ class ParallelSuiteEnv(EnvBase):
         super().__init__(batch_size=[num_workers], device="cpu")
         self.num_workers = num_workers
         self._render_devices = devices
+        self._spin_s = float(spin_s)
         self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
         self._procs: list[mp.Process | None] = []
         self._here: _Stepper | None = None
@@ -129,8 +143,8 @@ class ParallelSuiteEnv(EnvBase):
                 self._procs.append(None)
             for index in range(len(self._pipes), num_workers):
                 here, there = ctx.Pipe()
-                proc = ctx.Process(target=_work, args=(create_env_fn, there, index, render_threads), daemon=True,
-                                   name=f"ParallelSuiteEnv-{index}")
+                args = (create_env_fn, there, index, render_threads, self._spin_s)
+                proc = ctx.Process(target=_work, args=args, daemon=True, name=f"ParallelSuiteEnv-{index}")
                 with egl_device_environment(None if devices is None else devices[index % len(devices)]):
                     proc.start()
                 there.close()
@@ -245,6 +259,10 @@ class ParallelSuiteEnv(EnvBase):
     def _wait(self, workers) -> None:
         """Sleeps until every worker in ``workers`` has answered; raises with a failed worker's traceback."""
         pending = {self._pipes[i]: i for i in workers if self._pipes[i] is not None}
+        polled = time.perf_counter() + self._spin_s
+        while pending and time.perf_counter() < polled:
+            for pipe in [p for p in pending if p.poll()]:
+                self._answer(pending.pop(pipe))
         while pending:
             ready = wait(list(pending), timeout=_POLL_S)
             if not ready:
@@ -299,7 +317,8 @@ def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
     ).share_memory_()
 
 
-def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, render_threads: int | None) -> None:
+def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, render_threads: int | None,
+          spin_s: float) -> None:
     """A worker: builds its env, then steps, resets and seeds it on command until told to close."""
     torch.set_num_threads(1)
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -317,6 +336,9 @@ def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, re
         return
     while True:
         try:
+            polled = time.perf_counter() + spin_s
+            while time.perf_counter() < polled and not pipe.poll():
+                pass
             command = pipe.recv_bytes()
         except (EOFError, OSError):  # the main process is gone
             break

@@ -46,10 +46,11 @@ def _one_env_run(seed: int, actions: torch.Tensor) -> list:
     return out
 
 
-@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
-def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here):
+@pytest.mark.parametrize("first_here, spin_s", [(False, dcs.parallel.SPIN_S), (True, dcs.parallel.SPIN_S), (True, 0)],
+                         ids=["all-in-workers", "first-here", "first-here-no-polling"])
+def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin_s):
     n, steps = 2, 2 * EPISODE + 3  # across an episode end and a reset
-    env = ParallelSuiteEnv(n, FACTORY, first_here=first_here)
+    env = ParallelSuiteEnv(n, FACTORY, first_here=first_here, spin_s=spin_s)
     assert [pipe is None for pipe in env._pipes] == [first_here, False]
     env.set_seed(7)
     actions = _actions(steps, n)
@@ -149,6 +150,9 @@ def test_bad_input_and_failing_workers_name_the_fix():
         ParallelSuiteEnv(1, FACTORY, render_devices=[-1])
     with pytest.raises(ValueError, match="render_threads must be an int >= 0"):
         ParallelSuiteEnv(1, FACTORY, render_threads=-1)
+    for spin_s in (-0.001, 1.0, "3ms", True):
+        with pytest.raises(ValueError, match=r"spin_s must be seconds in \[0, 1.0\) \(0: sleep at once\)"):
+            ParallelSuiteEnv(1, FACTORY, spin_s=spin_s)
     env = ParallelSuiteEnv(1, FACTORY)
     with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*step before reset"):
         env.step(env.full_action_spec.zero().set("action", torch.zeros(1, 1)))

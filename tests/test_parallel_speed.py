@@ -1,5 +1,6 @@
 """benchmarks/parallel_speed.py runs as one command: the cores' ceiling line, then each chosen
 path's rounds and its row in the table (tiny sizes; the figures come from the README's command)."""
+import os
 import sys
 from pathlib import Path
 
@@ -8,12 +9,15 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import parallel_speed  # noqa: E402
 
-PATHS = ["one env", "ParallelSuiteEnv", "ParallelSuiteEnv, all in workers", "2 processes"]
+PATHS = ["one env", "ParallelSuiteEnv", "ParallelSuiteEnv, spin_s=0", "ParallelSuiteEnv, all in workers", "2 processes",
+         "ParallelSuiteEnv, LP_NUM_THREADS=0"]
 
 
 def test_the_benchmark_prints_the_ceiling_and_a_row_per_path(capsys):
+    before = dict(os.environ)
     results = parallel_speed.main(["--steps", "3", "--rounds", "1", "--benchmarks", "none", "--ceiling-rounds", "1",
-                                   "--only", *PATHS])
+                                   "--inline", "--only", *PATHS])
+    assert dict(os.environ) == before  # LP_NUM_THREADS=0 only in the inline path's process
     out = capsys.readouterr().out
     assert "the cores' ceiling: 2 one-thread matmul processes at once = " in out
     assert list(results) == ["none"] and list(results["none"]) == PATHS

@@ -174,6 +174,10 @@ class Pretrained:
         seeds of the training run's final evaluation (without settings it repeats that evaluation); with
         ``workers`` > 1 the episodes are spread over that many :class:`~dcs_torchrl.ParallelSuiteEnv` workers (other
         seeds per worker: other episodes). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
+        The policy acts on the batch in this process while the workers wait: on a 2-core CPU,
+        ``workers=2`` evaluated 6 episodes at 0.8x one env's speed (a worker starts in ~6 s, and a
+        batch of two costs the policy nearly twice one; docs/performance.md, "Parallel envs");
+        workers pay off where the policy is cheap (a GPU) and the episodes many.
         """
         from dcs_torchrl.evaluation import evaluate
         from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options

@@ -63,44 +63,6 @@ def time_env(env, td, steps: int, generator: torch.Generator):
     return time.perf_counter() - wall, time.process_time() - cpu, td
 
 
-def _process_worker(factory, pipe) -> None:
-    env = factory()
-    env.set_seed(int(pipe.recv()))
-    td, generator = env.reset(), torch.Generator().manual_seed(0)
-    while (steps := pipe.recv()) is not None:
-        pipe.send(time_env(env, td, steps, generator))
-        td = env.reset()
-    env.close()
-
-
-class Processes:
-    """n processes, each stepping its own env; a round's rate is n * steps / the slowest's time."""
-
-    def __init__(self, factory, n: int, seed: int):
-        ctx = mp.get_context("spawn")
-        self.pipes, self.procs = [], []
-        for i in range(n):
-            here, there = ctx.Pipe()
-            proc = ctx.Process(target=_process_worker, args=(factory, there), daemon=True)
-            proc.start()
-            here.send(seed + i)
-            self.pipes.append(here)
-            self.procs.append(proc)
-        self.batch = n
-
-    def run(self, steps: int):
-        for pipe in self.pipes:
-            pipe.send(steps)
-        results = [pipe.recv()[:2] for pipe in self.pipes]
-        return max(wall for wall, _ in results), 0.0
-
-    def close(self):
-        for pipe in self.pipes:
-            pipe.send(None)
-        for proc in self.procs:
-            proc.join(timeout=30)
-
-
 class Stepped:
     """A TorchRL env (single or batched) stepped in this process."""
 
@@ -130,27 +92,52 @@ def _driver(make, pipe) -> None:
 
 class InProcess:
     """A path run in a spawned process whose environment adds ``variables`` from its start (Mesa
-    reads ``LP_NUM_THREADS`` when dm_control first loads EGL, before any code of the path runs)."""
+    reads ``LP_NUM_THREADS`` when dm_control first loads EGL, before any code of the path runs);
+    ``daemon``: ended with this process (a path with workers of its own cannot be)."""
 
-    def __init__(self, make, variables: dict[str, str]):
-        self.pipe, there = mp.get_context("spawn").Pipe()
+    def __init__(self, make, variables: dict[str, str] | None = None, daemon: bool = False):
+        ctx = mp.get_context("spawn")
+        self.pipe, there = ctx.Pipe()
         before = dict(os.environ)
-        os.environ.update(variables)
+        os.environ.update(variables or {})
         try:
-            self.proc = mp.get_context("spawn").Process(target=_driver, args=(make, there), daemon=False)
+            self.proc = ctx.Process(target=_driver, args=(make, there), daemon=daemon)
             self.proc.start()
         finally:
             os.environ.clear()
             os.environ.update(before)
         self.batch = self.pipe.recv()
 
-    def run(self, steps: int):
+    def start(self, steps: int) -> None:
         self.pipe.send(steps)
+
+    def result(self):
         return self.pipe.recv()
+
+    def run(self, steps: int):
+        self.start(steps)
+        return self.result()
 
     def close(self):
         self.pipe.send(None)
         self.proc.join(timeout=60)
+
+
+class Processes:
+    """n processes, each stepping its own env; a round's rate is n * steps / the slowest's time."""
+
+    def __init__(self, factory, n: int, seed: int):
+        self.procs = [InProcess(functools.partial(_one, factory, seed + i), daemon=True) for i in range(n)]
+        self.batch = n
+
+    def run(self, steps: int):
+        for proc in self.procs:
+            proc.start(steps)
+        return max(proc.result()[0] for proc in self.procs), 0.0
+
+    def close(self):
+        for proc in self.procs:
+            proc.close()
 
 
 def _one(factory, seed: int) -> Stepped:
@@ -204,7 +191,7 @@ class Unlocked:
 
 
 def paths(factory, n: int, seed: int, render_threads: list[int], inline: bool = False) -> dict:
-    suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(dcs.ParallelSuiteEnv, render_threads=k)
+    suite = {f"ParallelSuiteEnv, render_threads={k}": functools.partial(_suite, factory, n, seed, render_threads=k)
              for k in render_threads}
     lp0 = {"LP_NUM_THREADS": "0"}
     inline_paths = {
@@ -217,9 +204,9 @@ def paths(factory, n: int, seed: int, render_threads: list[int], inline: bool = 
         "ParallelEnv, pipes": lambda: Stepped(ParallelEnv(n, factory, mp_start_method="spawn", use_buffers=False), seed),
         "ParallelSuiteEnv": lambda: _suite(factory, n, seed),
         "ParallelSuiteEnv, spin_s=0": lambda: _suite(factory, n, seed, spin_s=0),
-        "ParallelSuiteEnv, all in workers": lambda: Stepped(dcs.ParallelSuiteEnv(n, factory, first_here=False), seed),
+        "ParallelSuiteEnv, all in workers": lambda: _suite(factory, n, seed, first_here=False),
         "ParallelSuiteEnv, unlocked": lambda: Unlocked(factory, n, seed),
-        **{name: functools.partial(lambda make: Stepped(make(n, factory), seed), make) for name, make in suite.items()},
+        **suite,
         f"{n} processes": lambda: Processes(factory, n, seed),
         **inline_paths,
     }

@@ -83,8 +83,8 @@ class ParallelSuiteEnv(EnvBase):
         spin_s (float): seconds each waiting process polls its pipes (busy-waits) before it sleeps
             in ``select``: a worker after its step, this process for the workers' answers. A
             woken process starts 0.1-0.3 ms late on a virtual machine; a polling one at once, for
-            a core's time while it polls. Default :data:`SPIN_S` (3 ms: 1.45x -> 1.59x one env on
-            two cores, docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
+            a core's time while it polls. Default :data:`SPIN_S` (3 ms: 1.39-1.45x -> 1.47-1.59x one
+            env on two cores, two runs, docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
         first_here (bool, optional): build and step the first env in this process, while the other
             ``num_workers - 1`` step theirs in their own processes; ``False``: every env in a worker.
             The episodes are the same either way. ``None`` (default): ``True`` for two or more envs
@@ -257,15 +257,14 @@ class ParallelSuiteEnv(EnvBase):
         self._wait(workers)
 
     def _wait(self, workers) -> None:
-        """Sleeps until every worker in ``workers`` has answered; raises with a failed worker's traceback."""
+        """Polls for ``spin_s``, then sleeps, until every worker in ``workers`` has answered; raises
+        with a failed worker's traceback."""
         pending = {self._pipes[i]: i for i in workers if self._pipes[i] is not None}
         polled = time.perf_counter() + self._spin_s
-        while pending and time.perf_counter() < polled:
-            for pipe in [p for p in pending if p.poll()]:
-                self._answer(pending.pop(pipe))
         while pending:
-            ready = wait(list(pending), timeout=_POLL_S)
-            if not ready:
+            polling = time.perf_counter() < polled
+            ready = wait(list(pending), timeout=0 if polling else _POLL_S)
+            if not ready and not polling:
                 self._check_alive(pending.values())
             for pipe in ready:
                 self._answer(pending.pop(pipe))

@@ -48,6 +48,7 @@ from torchrl.envs import ParallelEnv  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
 from dcs_torchrl import parallel  # noqa: E402
+from dcs_torchrl.egl_devices import spawn_environment  # noqa: E402
 from machine import cpu_model  # noqa: E402
 
 
@@ -98,14 +99,9 @@ class InProcess:
     def __init__(self, make, variables: dict[str, str] | None = None, daemon: bool = False):
         ctx = mp.get_context("spawn")
         self.pipe, there = ctx.Pipe()
-        before = dict(os.environ)
-        os.environ.update(variables or {})
-        try:
+        with spawn_environment(variables or {}):
             self.proc = ctx.Process(target=_driver, args=(make, there), daemon=daemon)
             self.proc.start()
-        finally:
-            os.environ.clear()
-            os.environ.update(before)
         self.batch = self.pipe.recv()
 
     def start(self, steps: int) -> None:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import torch
 
 __all__ = ["EGLDevice", "egl_device_environment", "egl_device_of_cuda", "egl_devices", "process_render_device",
-           "render_device_index", "render_device_indices"]
+           "render_device_index", "render_device_indices", "spawn_environment"]
 
 #: The environment variable dm_control reads, once per process, for the EGL device it renders on.
 EGL_DEVICE_VARIABLE = "MUJOCO_EGL_DEVICE_ID"
@@ -185,21 +185,32 @@ def render_device_indices(render_devices: Sequence[int | str | torch.device] | N
     return [render_device_index(d, machine) for d in devices]
 
 
+#: Mesa's llvmpipe raster threads per process (0: it renders in the calling thread), read when the
+#: process first imports dm_control's EGL renderer (``import dcs_torchrl`` does).
+RENDER_THREADS_VARIABLE = "LP_NUM_THREADS"
+
+
 @contextmanager
-def egl_device_environment(device: int | None) -> Iterator[None]:
-    """``MUJOCO_EGL_DEVICE_ID=device`` in this process's environment for the duration, so that a
-    process spawned meanwhile renders on that device: dm_control reads the variable once, when a
-    process first imports its EGL renderer, before any code of a spawned worker runs. ``None``:
-    the environment is left as it is."""
-    if device is None:
-        yield
-        return
-    before = os.environ.get(EGL_DEVICE_VARIABLE)
-    os.environ[EGL_DEVICE_VARIABLE] = str(device)
+def spawn_environment(variables: dict[str, object | None]) -> Iterator[None]:
+    """``variables`` (name: value; ``None``: left as it is) in this process's environment for the
+    duration, so that a process spawned meanwhile starts with them: the variables a renderer reads
+    once, when a process first imports it (``MUJOCO_EGL_DEVICE_ID``, ``LP_NUM_THREADS``), are
+    read before any code of a spawned worker runs, since unpickling its function imports
+    ``dcs_torchrl``. Setting them inside the worker is too late."""
+    before = {name: os.environ.get(name) for name, value in variables.items() if value is not None}
+    os.environ.update({name: str(variables[name]) for name in before})
     try:
         yield
     finally:
-        if before is None:
-            del os.environ[EGL_DEVICE_VARIABLE]
-        else:
-            os.environ[EGL_DEVICE_VARIABLE] = before
+        for name, value in before.items():
+            if value is None:
+                del os.environ[name]
+            else:
+                os.environ[name] = value
+
+
+def egl_device_environment(device: int | None):
+    """``MUJOCO_EGL_DEVICE_ID=device`` in this process's environment for the duration, so that a
+    process spawned meanwhile renders on that device (:func:`spawn_environment`). ``None``: the
+    environment is left as it is."""
+    return spawn_environment({EGL_DEVICE_VARIABLE: device})

@@ -13,12 +13,22 @@ env carries state across episodes — the 2021 code's background blend
 (``make_env(reference_blend=True)``), whose sky accumulates over an env's episodes — a result
 depends on the episodes per env: the recipes' final evaluation runs all of them in one env unless
 ``eval.num_workers`` says otherwise, and ``python -m dcs_torchrl.robustness`` runs each point in one env.
+
+:func:`evaluate_in_processes` runs the same episodes with each sub-env in a process of its own,
+holding a copy of the policy: the way to spread an evaluation over the cores when the policy runs
+on the CPU (a batched env's workers wait while a CPU policy acts on their batch).
 """
 from __future__ import annotations
 
 import math
+import multiprocessing as mp
+import os
+import threading
+import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from multiprocessing.connection import wait
 
 import torch
 from tensordict import TensorDictBase
@@ -26,7 +36,7 @@ from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-__all__ = ["EvalResult", "evaluate"]
+__all__ = ["EvalResult", "evaluate", "evaluate_in_processes"]
 
 
 @dataclass(frozen=True)
@@ -139,3 +149,140 @@ def evaluate(
                     f"evaluate: {finished} of {episodes} episodes finished after max_steps={max_steps} env steps."
                 )
     return EvalResult(tuple(returns))
+
+
+def evaluate_in_processes(
+    make_env: Callable[[], EnvBase],
+    policy: Callable[[TensorDictBase], TensorDictBase],
+    episodes: int,
+    workers: int,
+    *,
+    seed: int,
+    threads: int | None = None,
+    **options,
+) -> EvalResult:
+    """:func:`evaluate` on ``workers`` envs from ``make_env``, each in its own process with its own
+    copy of ``policy``: the episodes of a batched evaluation, without the batch.
+
+    Env i is seeded as a batched env (:class:`~dcs_torchrl.ParallelSuiteEnv`, TorchRL's) seeds
+    its sub-env i: env 0 with ``seed``, each next one with what the previous one's ``set_seed``
+    returns; it runs episodes i, i + workers, i + 2 workers, ..., one after the other, as sub-env i
+    does where every episode lasts as long (a time limit: every DM Control task; see the module
+    docstring). This process runs env 0 while ``workers - 1`` spawned processes run the others;
+    the returns come back in episode order.
+
+    For a policy on the CPU: there acting costs about as much as a step, and a batched env's
+    workers wait while the policy acts on the batch; here each process acts on its own
+    observation while the others step (docs/performance.md, "Evaluation on the CPU"). Each
+    observation is given to the policy alone, not in a batch: the returns are those of one env
+    per seed (``tests/test_evaluation.py``).
+
+    Args:
+        make_env (callable): builds one env (batch size ``[]``); pickled to the processes: a
+            module-level function or a ``functools.partial``.
+        policy (callable): pickled to the processes (a TensorDict module on the CPU).
+        episodes (int): number of episodes.
+        workers (int): envs (processes, this one included); at most ``episodes`` are used.
+
+    Keyword Args:
+        seed (int): the first env's seed.
+        threads (int, optional): torch threads and Mesa llvmpipe render threads per process
+            (``LP_NUM_THREADS``, unless set already); default: the cores shared out,
+            ``max(1, cores // workers)``. This process's own render threads were fixed when it
+            first imported dm_control.
+        **options: :func:`evaluate`'s keyword arguments (``exploration_type``, ``max_steps``, ...).
+    """
+    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, spawn_environment
+
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}.")
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}.")
+    if workers > 1 and mp.current_process().daemon:
+        raise RuntimeError("evaluate_in_processes cannot start processes from a daemonic process: use workers=1 there.")
+    shares = min(workers, episodes)
+    if threads is None:
+        threads = max(1, (os.cpu_count() or 1) // shares)
+    counts = [len(range(i, episodes, workers)) for i in range(shares)]
+    env = make_env()
+    procs, pipes = [], []
+    try:
+        seeds = [seed]
+        for _ in range(shares - 1):
+            seeds.append(env.set_seed(seeds[-1]))
+        render_threads = None if RENDER_THREADS_VARIABLE in os.environ else threads  # a user's setting is kept
+        ctx = mp.get_context("spawn")
+        with spawn_environment({RENDER_THREADS_VARIABLE: render_threads}):
+            for i in range(1, shares):
+                here, there = ctx.Pipe(duplex=False)
+                args = (make_env, policy, counts[i], seeds[i], options, threads, os.getpid(), there)
+                proc = ctx.Process(target=_evaluate_share, args=args, daemon=True, name=f"evaluate-{i}")
+                proc.start()
+                there.close()
+                procs.append(proc)
+                pipes.append(here)
+        own_threads = torch.get_num_threads()
+        torch.set_num_threads(threads)
+        try:
+            returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
+        finally:
+            torch.set_num_threads(own_threads)
+        returns += _share_returns(procs, pipes)
+    finally:
+        for proc in procs:
+            if proc.is_alive():
+                proc.terminate()
+            proc.join(timeout=10)
+        for pipe in pipes:
+            pipe.close()
+        env.close()
+    ordered: list[float] = [0.0] * episodes
+    for i, share in enumerate(returns):
+        ordered[i:episodes:workers] = share
+    return EvalResult(tuple(ordered))
+
+
+def _share_returns(procs: list, pipes: list) -> list[tuple[float, ...]]:
+    """Each process's returns, in process order; raises with a failed process's traceback."""
+    out: dict[int, tuple[float, ...]] = {}
+    index = {pipe: i for i, pipe in enumerate(pipes)}
+    while len(out) < len(pipes):
+        for pipe in wait([p for p in pipes if index[p] not in out], timeout=1.0):
+            i = index[pipe]
+            try:
+                status, value = pipe.recv()
+            except EOFError:
+                procs[i].join(timeout=1.0)
+                raise RuntimeError(f"evaluation process {i + 1} died (exit code {procs[i].exitcode}) before "
+                                   "sending its returns: look for its error above.") from None
+            if status != "ok":
+                raise RuntimeError(f"evaluation process {i + 1} failed:\n{value}")
+            out[i] = value
+    return [out[i] for i in range(len(pipes))]
+
+
+def _evaluate_share(make_env, policy, episodes: int, seed: int, options: dict, threads: int, parent: int,
+                    pipe) -> None:
+    """One process's share of :func:`evaluate_in_processes`: its env's episodes, sent back as returns."""
+    torch.set_num_threads(threads)
+    threading.Thread(target=exit_with, args=(parent,), daemon=True).start()
+    try:
+        env = make_env()
+        try:
+            result = ("ok", evaluate(env, policy, episodes, seed=seed, **options).returns)
+        finally:
+            env.close()
+    except BaseException:
+        result = ("failed", traceback.format_exc())
+    try:
+        pipe.send(result)
+    except (BrokenPipeError, OSError):  # the caller is gone
+        pass
+
+
+def exit_with(parent: int) -> None:
+    """Ends this process when the process that started it (pid ``parent``) is gone: killed, no one
+    would read its results. Run it in a daemon thread."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)

@@ -27,7 +27,6 @@ medians of five runs); polling before sleeping then added 0.03-0.14 (docs/perfor
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -39,7 +38,7 @@ from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
-from dcs_torchrl.egl_devices import egl_device_environment, process_render_device, render_device_indices
+from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -70,8 +69,9 @@ class ParallelSuiteEnv(EnvBase):
     Keyword Args:
         render_threads (int, optional): Mesa llvmpipe raster threads per worker (``LP_NUM_THREADS``;
             0: each worker renders in its own thread); ``None`` (default) keeps the environment's
-            setting or Mesa's default. No effect on a GPU's EGL driver, nor on the first env with
-            ``first_here`` (it renders with this process's setting).
+            setting or Mesa's default. Set in each worker's environment from its start (Mesa reads it
+            once, at a process's first import of dm_control). No effect on a GPU's EGL driver, nor on
+            the first env with ``first_here`` (it renders with this process's setting).
         render_devices (list, optional): the GPU each worker renders on, worker ``i`` on
             ``render_devices[i % len(render_devices)]``, so that the workers of one run spread over
             the GPUs of a node: an EGL device index (``MUJOCO_EGL_DEVICE_ID``'s, not a CUDA
@@ -143,9 +143,10 @@ class ParallelSuiteEnv(EnvBase):
                 self._procs.append(None)
             for index in range(len(self._pipes), num_workers):
                 here, there = ctx.Pipe()
-                args = (create_env_fn, there, index, render_threads, self._spin_s)
+                args = (create_env_fn, there, index, self._spin_s)
                 proc = ctx.Process(target=_work, args=args, daemon=True, name=f"ParallelSuiteEnv-{index}")
-                with egl_device_environment(None if devices is None else devices[index % len(devices)]):
+                with spawn_environment({_EGL_DEVICE: None if devices is None else devices[index % len(devices)],
+                                        RENDER_THREADS_VARIABLE: render_threads}):  # read at its first import
                     proc.start()
                 there.close()
                 self._pipes.append(here)
@@ -316,13 +317,9 @@ def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
     ).share_memory_()
 
 
-def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, render_threads: int | None,
-          spin_s: float) -> None:
+def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, spin_s: float) -> None:
     """A worker: builds its env, then steps, resets and seeds it on command until told to close."""
     torch.set_num_threads(1)
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    if render_threads is not None:  # read by Mesa's llvmpipe at the first GL context, which comes later
-        os.environ["LP_NUM_THREADS"] = str(render_threads)
     try:
         stepper = _Stepper(create_env_fn())
         pipe.send_bytes(_OK)

@@ -21,6 +21,7 @@ finished run, and :func:`load_pretrained` gives the policy and envs it acts on:
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import shutil
@@ -171,19 +172,30 @@ class Pretrained:
         """The recipes' final evaluation of this agent in an env of make_env ``settings``.
 
         ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
-        seeds of the training run's final evaluation (without settings it repeats that evaluation); with
-        ``workers`` > 1 the episodes are spread over that many :class:`~dcs_torchrl.ParallelSuiteEnv` workers (other
-        seeds per worker: other episodes). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
-        The policy acts on the batch in this process while the workers wait: on a 2-core CPU,
-        ``workers=2`` evaluated 6 episodes at 0.8x one env's speed (a worker starts in ~6 s, and a
-        batch of two costs the policy nearly twice one; docs/performance.md, "Parallel envs");
-        workers pay off where the policy is cheap (a GPU) and the episodes many.
+        seeds of the training run's final evaluation (without settings it repeats that evaluation).
+        With ``workers`` > 1 the episodes are spread over that many envs, seeded as the workers of a
+        :class:`~dcs_torchrl.ParallelSuiteEnv` are (other seeds per env: other episodes than one
+        env's), env i running episodes i, i + workers, ...:
+
+        - policy on the CPU: each env in its own process with a copy of the policy
+          (:func:`~dcs_torchrl.evaluation.evaluate_in_processes`); a batched policy there costs
+          nearly twice one while the workers wait (docs/performance.md, "Evaluation on the CPU");
+        - policy on a GPU: one :class:`~dcs_torchrl.ParallelSuiteEnv`, the policy acting on the
+          batch in this process.
+
+        Both give every episode the return of that episode run alone (up to the batch's float
+        rounding on a GPU). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
         """
-        from dcs_torchrl.evaluation import evaluate
-        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options
+        import torch
+
+        from dcs_torchrl.evaluation import evaluate, evaluate_in_processes
+        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_options
 
         cfg = self._cfg
         resolved = agent_env_settings(cfg, settings)
+        if workers > 1 and torch.device(cfg.device).type == "cpu":
+            make = functools.partial(pixel_env, resolved, **pixel_options(cfg.pixels))
+            return evaluate_in_processes(make, self.policy, episodes, workers, seed=self.eval_seed)
         if workers > 1:
             env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
         else:  # in this process: no worker to start
@@ -235,8 +247,9 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
     Each process evaluates whole settings, each in one env, so every episode's return is the one
     an evaluation in this process gives (and the 2021 code's background blend accumulates over all
     of a setting's episodes, as there). Processes get an equal share of the cores for torch and for
-    Mesa's llvmpipe render threads (``LP_NUM_THREADS``, read when the first GL context is made;
-    without it their renders contend: docs/performance.md) and end when this process is killed.
+    Mesa's llvmpipe render threads (``LP_NUM_THREADS``, in each process's environment from its
+    start: Mesa reads it once, at the process's first import of dm_control; a user's setting is
+    kept) and end when this process is killed.
     ``processes=1`` evaluates here, one setting after another, unless it must render elsewhere.
 
     Args:
@@ -276,9 +289,10 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from contextlib import ExitStack
 
-    from dcs_torchrl.egl_devices import egl_device_environment
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, spawn_environment
 
     threads = max(1, (os.cpu_count() or 1) // processes)
+    render_threads = None if RENDER_THREADS_VARIABLE in os.environ else threads  # a user's setting is kept
     share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
     todo = iter(settings.items())
     running = {}
@@ -286,7 +300,7 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
         def feed(pool, render):
             item = next(todo, None)
             if item is not None:  # a process spawned by this submit renders on the pool's device
-                with egl_device_environment(render):
+                with spawn_environment({EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads}):
                     running[pool.submit(_evaluate_in_worker, item[1], episodes, workers)] = item[0], pool, render
 
         for render, count in share.items():
@@ -307,22 +321,17 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
 _WORKER_AGENT = None
 
 
-def _exit_with(parent: int) -> None:
-    """Ends this worker when the process that started it is gone (killed: no one would read its results)."""
-    while os.getppid() == parent:
-        time.sleep(1.0)
-    os._exit(1)
-
-
 def _start_worker(agent: str, device: str, final: bool, threads: int, parent: int, render: int | None) -> None:
     from dcs_torchrl.egl_devices import process_render_device
 
     if render is not None and process_render_device() != render:  # spawned outside egl_device_environment
         raise RuntimeError(f"an evaluation process meant to render on EGL device {render} was started on "
                            f"{process_render_device()}: it must be spawned with MUJOCO_EGL_DEVICE_ID={render}.")
-    os.environ.setdefault("LP_NUM_THREADS", str(threads))  # a user's setting is kept
-    threading.Thread(target=_exit_with, args=(parent,), daemon=True).start()
     import torch
+
+    from dcs_torchrl.evaluation import exit_with
+
+    threading.Thread(target=exit_with, args=(parent,), daemon=True).start()
 
     global _WORKER_AGENT
     torch.set_num_threads(threads)

@@ -1,6 +1,7 @@
 """The evaluation protocol on real dm_control physics (cartpole swingup from states)."""
 import functools
 import math
+import os
 
 import pytest
 import torch
@@ -9,7 +10,7 @@ from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, Paral
 
 from dcs_torchrl import ParallelSuiteEnv
 from dcs_torchrl.modules import make_encoder, make_sac_actor
-from dcs_torchrl.evaluation import EvalResult, evaluate
+from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
 
 EPISODE_STEPS = 1000 // 8  # cartpole's 1000-step time limit at action repeat 8
 
@@ -125,6 +126,7 @@ def _sub_env_seeds(seed: int, num_envs: int) -> list[int]:
     ("serial", 3, 4),    # sub-envs 1 and 2 idle while sub-env 0 runs episode 3
     ("parallel", 2, 3),
     ("suite", 2, 3),     # the suite's ParallelSuiteEnv
+    ("processes", 2, 3),  # evaluate_in_processes: each env in its own process with its own policy
 ])
 def test_a_batched_evaluation_gives_each_episode_the_return_of_that_episode_run_alone(batched, num_envs, episodes):
     """Episode by episode, a batched evaluation's returns are those of the same episodes stepped
@@ -132,10 +134,13 @@ def test_a_batched_evaluation_gives_each_episode_the_return_of_that_episode_run_
     (module docstring of dcs_torchrl.evaluation). A reward of one sub-env counted in another's
     return, or an episode's return given to another, fails here."""
     policy = _policy()
-    env = {"serial": SerialEnv, "parallel": functools.partial(ParallelEnv, mp_start_method="spawn"),
-           "suite": ParallelSuiteEnv}[batched](num_envs, _env)
-    result = evaluate(env, policy, episodes, seed=4)
-    env.close()
+    if batched == "processes":
+        result = evaluate_in_processes(_env, policy, episodes, num_envs, seed=4)
+    else:
+        env = {"serial": SerialEnv, "parallel": functools.partial(ParallelEnv, mp_start_method="spawn"),
+               "suite": ParallelSuiteEnv}[batched](num_envs, _env)
+        result = evaluate(env, policy, episodes, seed=4)
+        env.close()
     expected = [None] * episodes
     for i, seed in enumerate(_sub_env_seeds(4, num_envs)):
         runs = list(range(i, episodes, num_envs))
@@ -143,3 +148,21 @@ def test_a_batched_evaluation_gives_each_episode_the_return_of_that_episode_run_
             expected[index] = ret
     assert list(result.returns) == pytest.approx(expected, rel=1e-6)
     assert len(set(result.returns)) == episodes  # every episode its own return
+
+
+def _env_failing_in_another_process(parent: int) -> TransformedEnv:
+    if os.getpid() != parent:
+        raise ValueError("no env in this process")
+    return _env()
+
+
+def test_evaluate_in_processes_reports_a_failed_process_and_refuses_bad_workers():
+    policy = _policy()
+    make = functools.partial(_env_failing_in_another_process, os.getpid())
+    with pytest.raises(RuntimeError, match=r"evaluation process 1 failed:(.|\n)*no env in this process"):
+        evaluate_in_processes(make, policy, 2, 2, seed=0)
+    for workers in (0, True, 1.5):
+        with pytest.raises(ValueError, match="workers must be an int >= 1"):
+            evaluate_in_processes(_env, policy, 2, workers, seed=0)
+    # more workers than episodes: the extra envs run nothing, episode 0 is env 0's first
+    assert evaluate_in_processes(_env, policy, 1, 3, seed=4).returns == pytest.approx(_stepped_returns(policy, 4, 1), rel=1e-6)

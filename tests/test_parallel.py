@@ -139,6 +139,22 @@ def _broken_env_in_a_worker():
     return FACTORY()
 
 
+def test_render_threads_reach_the_workers_from_their_start():
+    """Mesa reads LP_NUM_THREADS once, when a process first imports dm_control, which unpickling a
+    worker's function does: render_threads must be in the worker's environment from its start."""
+    before = dict(os.environ)
+    env = ParallelSuiteEnv(2, FACTORY, render_threads=0)
+    try:
+        assert env.first_here
+        with open(f"/proc/{env._procs[1].pid}/environ", "rb") as f:
+            start = dict(item.split(b"=", 1) for item in f.read().split(b"\0") if b"=" in item)
+        assert start[b"LP_NUM_THREADS"] == b"0"
+        env.reset()
+    finally:
+        env.close()
+    assert dict(os.environ) == before  # set only while the worker was started
+
+
 def test_bad_input_and_failing_workers_name_the_fix():
     with pytest.raises(ValueError, match="num_workers must be an int >= 1"):
         ParallelSuiteEnv(0, FACTORY)

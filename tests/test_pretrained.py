@@ -74,6 +74,34 @@ def test_shipped_agent_acts_under_any_make_env_setting(name):
     assert rollout["pixels"].shape[-2:] == (84, 84)
 
 
+def test_evaluate_with_workers_on_the_cpu_gives_each_episode_of_one_env_per_seed():
+    """On the CPU, evaluate(workers=2) runs each env in its own process with a copy of the policy:
+    env i seeded as ParallelSuiteEnv seeds its worker i, running episodes i, i + 2, ...; every
+    return is the one that env gives alone, to the bit. (The batched ParallelSuiteEnv evaluation,
+    the GPU's path, gives the same episodes up to the float rounding of a batch of two, which a
+    long episode can amplify: 0.0004 on this test's first episode, 11.6 on another's fifth.)"""
+    from dcs_torchrl.pretrained import agent_env_settings
+    from dcs_torchrl.training.envs import pixel_env, pixel_options
+
+    agent = load_pretrained(AGENT)
+    settings = dict(benchmark="medium", dynamic=True)
+    split = agent.evaluate(3, workers=2, **settings)
+
+    def alone(seed: int, episodes: int) -> tuple:
+        env = pixel_env(agent_env_settings(agent._cfg, settings), **pixel_options(agent._cfg.pixels))
+        try:
+            return evaluate(env, agent.policy, episodes, seed=seed).returns
+        finally:
+            env.close()
+
+    second = pixel_env(agent_env_settings(agent._cfg, settings), **pixel_options(agent._cfg.pixels))
+    second_seed = second.set_seed(agent.eval_seed)  # TorchRL's chain: worker 1's seed
+    second.close()
+    first, other = alone(agent.eval_seed, 2), alone(second_seed, 1)
+    assert split.returns == (first[0], other[0], first[1])
+    assert len(set(split.returns)) == 3  # three episodes, not one repeated
+
+
 def test_evaluate_recipe_on_the_shipped_agent(tmp_path):
     out = tmp_path / "eval"
     done = subprocess.run(

@@ -9,6 +9,7 @@ agent steps (one action = ``action_repeat`` frames); DrQ's one update per agent 
 """
 from __future__ import annotations
 
+import functools
 import logging
 import random
 import sys
@@ -28,11 +29,11 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
-from dcs_torchrl.evaluation import evaluate
+from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options, recipe_settings, render_device
+from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_options, recipe_settings, render_device
 from dcs_torchrl.training.execution import ExecutionOptions, apply_math_settings, check_execution, on_device, replay_device
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, RunningMeans, read_metrics
@@ -163,9 +164,15 @@ class Workspace:
         self.render_device = render_device(cfg)
         pixels["render_device"] = self.render_device
         self.env = self.eval_env = None
+        # eval.num_workers > 1 with the policy on the CPU: each evaluation env in a process of its own with a
+        # copy of the policy (evaluate_in_processes; a batched CPU policy makes the workers wait), the env
+        # here only for the video; elsewhere one ParallelSuiteEnv, the policy acting on its batch
+        self.eval_make = None
+        if cfg.eval.num_workers > 1 and torch.device(cfg.device).type == "cpu" and self.render_device is None:
+            self.eval_make = functools.partial(pixel_env, self.eval_settings, **pixel_options(cfg.pixels))
         self.env = make_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
         try:
-            self.eval_env = make_pixel_env(self.eval_settings, num_workers=cfg.eval.num_workers,
+            self.eval_env = make_pixel_env(self.eval_settings, num_workers=1 if self.eval_make else cfg.eval.num_workers,
                                            seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
             observation_shape = tuple(self.env.observation_spec["pixels"].shape[-3:])
             action_spec = self.env.action_spec[0] if self.env.batch_size else self.env.action_spec
@@ -309,9 +316,16 @@ class Workspace:
         })
         self.last_log, self.tick = steps, time.time()
 
+    def _evaluation(self, episodes: int, seed: int) -> EvalResult:
+        """``episodes`` deterministic episodes over ``eval.num_workers`` envs seeded from ``seed``: the
+        same episodes either way (up to a batched policy's float rounding)."""
+        if self.eval_make is not None:
+            return evaluate_in_processes(self.eval_make, self.eval_policy, episodes, self.cfg.eval.num_workers, seed=seed)
+        return evaluate(self.eval_env, self.eval_policy, episodes, seed=seed)
+
     def _evaluate_periodically(self) -> None:
         cfg, frames = self.cfg, self.frames
-        result = evaluate(self.eval_env, self.eval_policy, cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
+        result = self._evaluation(cfg.eval.periodic_episodes, seed=cfg.seed + EVAL_SEED_OFFSET + frames)
         self.logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
         log.info(f"[{frames} frames] eval return {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
         self.counters["next_eval"] = _next_due(frames, self.counters["next_eval"], cfg.eval.interval)
@@ -321,7 +335,7 @@ class Workspace:
         """The final checkpoint, evaluation, video and learning curve; the ``results.json`` record."""
         cfg, frames = self.cfg, self.frames
         self.checkpoint()  # before the final evaluation's rows: a resumed run logs them once
-        result = evaluate(self.eval_env, self.eval_policy, cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
+        result = self._evaluation(cfg.eval.episodes, seed=cfg.seed + EVAL_SEED_OFFSET)
         self.logger.log(frames, {"eval/return_mean": result.mean, "eval/return_stderr": result.stderr})
         log.info(f"final evaluation after {frames} frames: {result.mean:.1f} ± {result.stderr:.1f} over {result.episodes} episodes")
         if cfg.eval.video:

@@ -14,13 +14,25 @@ from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunDirectory
 from dcs_torchrl.training.envs import close_env, make_pixel_env
+from dcs_torchrl.evaluation import evaluate
+from dcs_torchrl.training import loop
 from dcs_torchrl.training.loop import Workspace
 from dcs_test_utils import distraction_streams, shared_streams
+
+
+def _evaluate_in_this_process(make, policy, episodes, workers, *, seed):
+    """evaluate_in_processes's seeds and episodes (env i seeded as a batched env's sub-env i), its envs here."""
+    env = SerialEnv(workers, make)
+    try:
+        return evaluate(env, policy, episodes, seed=seed)
+    finally:
+        env.close()
 
 
 @pytest.fixture
 def workers_in_process(monkeypatch):
     monkeypatch.setattr(training_envs, "ParallelSuiteEnv", lambda num_workers, make, **_: SerialEnv(num_workers, make))
+    monkeypatch.setattr(loop, "evaluate_in_processes", _evaluate_in_this_process)
 
 
 @pytest.fixture
@@ -55,8 +67,10 @@ def test_every_worker_and_distraction_draws_its_own_stream(workers_in_process):
 
 
 def test_evaluation_seeds_are_disjoint_from_the_training_seeds(tmp_path, workers_in_process, physics_seeds):
-    """The seeds the training workers get, against every seed an evaluation worker gets: at its
-    construction, at a periodic evaluation and at the final one (short episodes: action repeat 100)."""
+    """The seeds the training workers get, against every seed an evaluation env gets: at its
+    construction, at a periodic evaluation and at the final one (short episodes: action repeat 100).
+    On the CPU the evaluations' two envs run in processes of their own (here in this process, with
+    the same seeds), the workspace's evaluation env being the one that records the video."""
     with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
         cfg = compose("sac", overrides=[
             "seed=3", "collector.num_workers=2", "eval.num_workers=2", "pixels.image_size=32", "env.action_repeat=100",
@@ -67,12 +81,12 @@ def test_evaluation_seeds_are_disjoint_from_the_training_seeds(tmp_path, workers
     run.claim()
     with Workspace(cfg, agent_class("sac"), run) as workspace:
         train_envs = [worker.base_env for worker in _workers(workspace.env)]
-        eval_envs = [worker.base_env for worker in _workers(workspace.eval_env)]
         workspace.resume()
         workspace.counters["steps"] = 7  # mid-training: frames = 700
         workspace._evaluate_periodically()
         workspace.finish()
     seeds_of = lambda envs: [seed for env, seed in physics_seeds if seed is not None and any(env is e for e in envs)]  # noqa: E731
-    train, evaluation = seeds_of(train_envs), seeds_of(eval_envs)
-    assert len(set(train)) == 2 and len(evaluation) == 6  # each eval worker: construction, periodic, final
+    train = seeds_of(train_envs)
+    evaluation = [seed for env, seed in physics_seeds if seed is not None and not any(env is e for e in train_envs)]
+    assert len(set(train)) == 2 and len(set(evaluation)) == 4  # two envs' periodic seeds, two envs' final ones
     assert set(train) & set(evaluation) == set()

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import torch
 
 __all__ = ["EGLDevice", "egl_device_environment", "egl_device_of_cuda", "egl_devices", "process_render_device",
-           "render_device_index", "render_device_indices", "spawn_environment"]
+           "render_device_index", "render_device_indices", "render_threads_share", "spawn_environment"]
 
 #: The environment variable dm_control reads, once per process, for the EGL device it renders on.
 EGL_DEVICE_VARIABLE = "MUJOCO_EGL_DEVICE_ID"
@@ -188,6 +188,13 @@ def render_device_indices(render_devices: Sequence[int | str | torch.device] | N
 #: Mesa's llvmpipe raster threads per process (0: it renders in the calling thread), read when the
 #: process first imports dm_control's EGL renderer (``import dcs_torchrl`` does).
 RENDER_THREADS_VARIABLE = "LP_NUM_THREADS"
+
+
+def render_threads_share(threads: int) -> int | None:
+    """``threads`` as the render threads of processes that share the cores, for
+    :func:`spawn_environment`; ``None`` (left as it is) where the user's environment sets
+    ``LP_NUM_THREADS``."""
+    return None if RENDER_THREADS_VARIABLE in os.environ else threads
 
 
 @contextmanager

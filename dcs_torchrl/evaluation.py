@@ -192,7 +192,7 @@ def evaluate_in_processes(
             first imported dm_control.
         **options: :func:`evaluate`'s keyword arguments (``exploration_type``, ``max_steps``, ...).
     """
-    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, spawn_environment
+    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}.")
@@ -210,9 +210,8 @@ def evaluate_in_processes(
         seeds = [seed]
         for _ in range(shares - 1):
             seeds.append(env.set_seed(seeds[-1]))
-        render_threads = None if RENDER_THREADS_VARIABLE in os.environ else threads  # a user's setting is kept
         ctx = mp.get_context("spawn")
-        with spawn_environment({RENDER_THREADS_VARIABLE: render_threads}):
+        with spawn_environment({RENDER_THREADS_VARIABLE: render_threads_share(threads)}):
             for i in range(1, shares):
                 here, there = ctx.Pipe(duplex=False)
                 args = (make_env, policy, counts[i], seeds[i], options, threads, os.getpid(), there)
@@ -247,7 +246,7 @@ def _share_returns(procs: list, pipes: list) -> list[tuple[float, ...]]:
     out: dict[int, tuple[float, ...]] = {}
     index = {pipe: i for i, pipe in enumerate(pipes)}
     while len(out) < len(pipes):
-        for pipe in wait([p for p in pipes if index[p] not in out], timeout=1.0):
+        for pipe in wait([p for p in pipes if index[p] not in out]):  # a dead process's pipe reads EOF
             i = index[pipe]
             try:
                 status, value = pipe.recv()

@@ -21,7 +21,6 @@ finished run, and :func:`load_pretrained` gives the policy and envs it acts on:
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import os
 import shutil
@@ -189,13 +188,13 @@ class Pretrained:
         import torch
 
         from dcs_torchrl.evaluation import evaluate, evaluate_in_processes
-        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_options
+        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env_factory, pixel_options
 
         cfg = self._cfg
         resolved = agent_env_settings(cfg, settings)
         if workers > 1 and torch.device(cfg.device).type == "cpu":
-            make = functools.partial(pixel_env, resolved, **pixel_options(cfg.pixels))
-            return evaluate_in_processes(make, self.policy, episodes, workers, seed=self.eval_seed)
+            return evaluate_in_processes(pixel_env_factory(resolved, cfg.pixels), self.policy, episodes, workers,
+                                         seed=self.eval_seed)
         if workers > 1:
             env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
         else:  # in this process: no worker to start
@@ -289,10 +288,10 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from contextlib import ExitStack
 
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, spawn_environment
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
 
     threads = max(1, (os.cpu_count() or 1) // processes)
-    render_threads = None if RENDER_THREADS_VARIABLE in os.environ else threads  # a user's setting is kept
+    render_threads = render_threads_share(threads)
     share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
     todo = iter(settings.items())
     running = {}

@@ -91,6 +91,12 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     return env
 
 
+def pixel_env_factory(settings: EnvSettings, pixels) -> functools.partial:
+    """A builder of one :func:`pixel_env` of ``settings`` with a config's ``pixels`` handling,
+    picklable: what a spawned process builds its env with."""
+    return functools.partial(pixel_env, settings, **pixel_options(pixels))
+
+
 def render_device(cfg, choice=None) -> int | None:
     """The EGL device a recipe's envs render on, from ``execution.render_device`` (or ``choice``
     where given, for the device of ``cfg.device``): an EGL device index as given (checked against

@@ -9,7 +9,6 @@ agent steps (one action = ``action_repeat`` frames); DrQ's one update per agent 
 """
 from __future__ import annotations
 
-import functools
 import logging
 import random
 import sys
@@ -33,7 +32,7 @@ from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_options, recipe_settings, render_device
+from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env_factory, pixel_options, recipe_settings, render_device
 from dcs_torchrl.training.execution import ExecutionOptions, apply_math_settings, check_execution, on_device, replay_device
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, RunningMeans, read_metrics
@@ -169,7 +168,7 @@ class Workspace:
         # here only for the video; elsewhere one ParallelSuiteEnv, the policy acting on its batch
         self.eval_make = None
         if cfg.eval.num_workers > 1 and torch.device(cfg.device).type == "cpu" and self.render_device is None:
-            self.eval_make = functools.partial(pixel_env, self.eval_settings, **pixel_options(cfg.pixels))
+            self.eval_make = pixel_env_factory(self.eval_settings, cfg.pixels)
         self.env = make_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
         try:
             self.eval_env = make_pixel_env(self.eval_settings, num_workers=1 if self.eval_make else cfg.eval.num_workers,

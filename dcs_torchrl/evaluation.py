@@ -20,6 +20,7 @@ on the CPU (a batched env's workers wait while a CPU policy acts on their batch)
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing as mp
 import os
@@ -36,7 +37,16 @@ from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-__all__ = ["EvalResult", "evaluate", "evaluate_in_processes"]
+__all__ = ["EVAL_THREADS", "EvalResult", "evaluate", "evaluate_in_processes"]
+
+#: torch's threads while an evaluation runs (:func:`evaluate`'s ``threads``), in every path: one
+#: env here, a batched env, a process per env. On some CPUs torch's matrix products round
+#: differently with the thread count (the encoder's 39200-wide linear layer on an Intel Xeon with
+#: AVX-512, though not on an AMD EPYC with AVX2), and an episode amplifies it (a cartpole return of
+#: 267.0 with one thread, 244.5 with two), so the thread count is fixed: an episode's return
+#: depends on its seed, not on the cores or how many envs ran beside it. One: what a process of a
+#: full evaluation (one env per core) can have.
+EVAL_THREADS = 1
 
 
 @dataclass(frozen=True)
@@ -87,11 +97,13 @@ def evaluate(
     reward_key: NestedKey = "reward",
     done_key: NestedKey = "done",
     max_steps: int | None = None,
+    threads: int | None = EVAL_THREADS,
 ) -> EvalResult:
     """Runs ``episodes`` full episodes of ``policy`` on ``env`` and returns their returns.
 
     The policy runs under ``set_exploration_type(exploration_type)`` (deterministic by default:
-    the tanh-Gaussian's ``tanh(mean)``, CEM without exploration noise) and ``torch.no_grad()``.
+    the tanh-Gaussian's ``tanh(mean)``, CEM without exploration noise), ``torch.no_grad()`` and
+    ``threads`` torch threads.
 
     Args:
         env (EnvBase): a TorchRL env, single (batch size ``[]``) or batched (``[n]``); its
@@ -104,6 +116,10 @@ def evaluate(
         exploration_type (ExplorationType): defaults to ``DETERMINISTIC``.
         reward_key, done_key (NestedKey): entries under ``"next"``.
         max_steps (int, optional): safety limit on env steps; exceeding it raises.
+        threads (int, optional): torch's threads while the episodes run, this process's setting
+            restored after; default :data:`EVAL_THREADS` (1), so that a return does not depend on
+            the machine's cores or the number of envs (a policy on the CPU rounds differently with
+            the thread count on some CPUs); ``None`` keeps this process's setting.
 
     Examples:
         >>> from torchrl.envs import DMControlEnv
@@ -115,6 +131,9 @@ def evaluate(
     """
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}.")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise ValueError(f"threads must be an int >= 1 (torch's threads while evaluating) or None (this "
+                         f"process's setting), got {threads!r}.")
     if len(env.batch_size) > 1:
         raise ValueError(f"evaluate supports single envs and 1-d batched envs, got batch size {tuple(env.batch_size)}.")
     num_envs = env.batch_size.numel()
@@ -126,7 +145,7 @@ def evaluate(
     steps = 0
     if seed is not None:
         env.set_seed(seed)
-    with set_exploration_type(exploration_type), torch.no_grad():
+    with torch_threads(threads), set_exploration_type(exploration_type), torch.no_grad():
         td = env.reset()
         while finished < episodes:
             td = policy(td)
@@ -149,6 +168,18 @@ def evaluate(
                     f"evaluate: {finished} of {episodes} episodes finished after max_steps={max_steps} env steps."
                 )
     return EvalResult(tuple(returns))
+
+
+@contextlib.contextmanager
+def torch_threads(threads: int | None):
+    """torch's intra-op threads set to ``threads`` inside (``None``: left alone), restored after."""
+    own = torch.get_num_threads()
+    if threads is not None:
+        torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(own)
 
 
 def evaluate_in_processes(
@@ -186,10 +217,11 @@ def evaluate_in_processes(
 
     Keyword Args:
         seed (int): the first env's seed.
-        threads (int, optional): torch threads and Mesa llvmpipe render threads per process
-            (``LP_NUM_THREADS``, unless set already); default: the cores shared out,
-            ``max(1, cores // workers)``. This process's own render threads were fixed when it
-            first imported dm_control.
+        threads (int, optional): Mesa llvmpipe render threads per process (``LP_NUM_THREADS``,
+            unless set already) and torch's threads outside the episodes (building the env);
+            default: the cores shared out, ``max(1, cores // workers)``. This process's own render
+            threads were fixed when it first imported dm_control. The episodes themselves run with
+            :func:`evaluate`'s ``threads`` (:data:`EVAL_THREADS`, as everywhere).
         **options: :func:`evaluate`'s keyword arguments (``exploration_type``, ``max_steps``, ...).
     """
     from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
@@ -220,12 +252,8 @@ def evaluate_in_processes(
                 there.close()
                 procs.append(proc)
                 pipes.append(here)
-        own_threads = torch.get_num_threads()
-        torch.set_num_threads(threads)
-        try:
+        with torch_threads(threads):
             returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
-        finally:
-            torch.set_num_threads(own_threads)
         returns += _share_returns(procs, pipes)
     finally:
         for proc in procs:

@@ -110,6 +110,9 @@ def test_evaluate_errors():
         evaluate(_env(), _policy(), 0)
     with pytest.raises(RuntimeError, match="0 of 1 episodes finished after max_steps=5"):
         evaluate(_env(), _policy(), 1, max_steps=5)
+    for threads in (0, True, 1.5, "2"):
+        with pytest.raises(ValueError, match="threads must be an int >= 1"):
+            evaluate(_env(), _policy(), 1, threads=threads)
 
 
 def _sub_env_seeds(seed: int, num_envs: int) -> list[int]:

@@ -145,7 +145,7 @@ def evaluate(
     steps = 0
     if seed is not None:
         env.set_seed(seed)
-    with torch_threads(threads), set_exploration_type(exploration_type), torch.no_grad():
+    with _torch_threads(threads), set_exploration_type(exploration_type), torch.no_grad():
         td = env.reset()
         while finished < episodes:
             td = policy(td)
@@ -171,7 +171,7 @@ def evaluate(
 
 
 @contextlib.contextmanager
-def torch_threads(threads: int | None):
+def _torch_threads(threads: int | None):
     """torch's intra-op threads set to ``threads`` inside (``None``: left alone), restored after."""
     own = torch.get_num_threads()
     if threads is not None:
@@ -217,11 +217,11 @@ def evaluate_in_processes(
 
     Keyword Args:
         seed (int): the first env's seed.
-        threads (int, optional): Mesa llvmpipe render threads per process (``LP_NUM_THREADS``,
-            unless set already) and torch's threads outside the episodes (building the env);
-            default: the cores shared out, ``max(1, cores // workers)``. This process's own render
-            threads were fixed when it first imported dm_control. The episodes themselves run with
-            :func:`evaluate`'s ``threads`` (:data:`EVAL_THREADS`, as everywhere).
+        threads (int, optional): Mesa llvmpipe render threads per spawned process
+            (``LP_NUM_THREADS``, unless set already) and its torch threads outside the episodes
+            (building its env); default: the cores shared out, ``max(1, cores // workers)``. This
+            process's own render threads were fixed when it first imported dm_control. The episodes
+            themselves run with :func:`evaluate`'s ``threads`` (:data:`EVAL_THREADS`, as everywhere).
         **options: :func:`evaluate`'s keyword arguments (``exploration_type``, ``max_steps``, ...).
     """
     from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
@@ -252,8 +252,7 @@ def evaluate_in_processes(
                 there.close()
                 procs.append(proc)
                 pipes.append(here)
-        with torch_threads(threads):
-            returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
+        returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
         returns += _share_returns(procs, pipes)
     finally:
         for proc in procs:

@@ -93,7 +93,10 @@ def main(argv=None) -> None:
     print("correlation of each statistic with the return over the clips:")
     for key in STATS:
         values = np.array([float(r[key]) for r in rows])
-        print(f"  {key:<12} {np.corrcoef(values, returns)[0, 1]:+.2f}")
+        if len(rows) < 3 or values.std() == 0 or returns.std() == 0:  # no correlation to speak of (nan)
+            print(f"  {key:<12} n/a ({len(rows)} clips, spread {values.std():.3g} against the returns' {returns.std():.3g})")
+        else:
+            print(f"  {key:<12} {np.corrcoef(values, returns)[0, 1]:+.2f}")
 
 
 if __name__ == "__main__":

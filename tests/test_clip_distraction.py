@@ -22,7 +22,9 @@ def test_each_clip_alone_and_a_rerun_skips_what_it_holds(tmp_path, capsys):
     rows = list(csv.DictReader(out.open()))
     assert [r["clip"] for r in rows] == ["a_red", "b_blue"]
     assert float(rows[0]["warmth"]) > 0.1 > -0.1 > float(rows[1]["warmth"])  # red: R - B high; blue: low
-    assert "correlation of each statistic" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "correlation of each statistic" in printed
+    assert "n/a (2 clips, spread" in printed  # two clips: no correlation computed (it would be +-1 or nan)
     # the second clip's return is that of an evaluation with that clip alone as the background
     write_frames(tmp_path / "only_blue" / "b_blue", 3, rgb=(20, 40, 220))
     alone = load_pretrained("sac_rad_cartpole_swingup").evaluate(

@@ -56,8 +56,8 @@ class ParallelSuiteEnv(EnvBase):
 
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
     a render (the suite's): the same specs, seeding and partial resets, usable with TorchRL's
-    collectors, ``rollout`` and the suite's evaluation; about 1.5x one env's speed on two idle
-    cores (1.34-1.59 over four runs), where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
+    collectors, ``rollout`` and the suite's evaluation; about 1.4x one env's speed on two idle
+    cores (1.31-1.59 over five runs), where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
 
     Args:
         num_workers (int): the number of envs, each in its own process.

@@ -9,8 +9,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import parallel_speed  # noqa: E402
 
-PATHS = ["one env", "ParallelSuiteEnv", "ParallelSuiteEnv, spin_s=0", "ParallelSuiteEnv, all in workers", "2 processes",
-         "ParallelSuiteEnv, LP_NUM_THREADS=0"]
+# each kind of path once (the ParallelSuiteEnv variants differ only in their keyword arguments, tested in test_parallel.py)
+PATHS = ["one env", "ParallelSuiteEnv", "2 processes", "ParallelSuiteEnv, LP_NUM_THREADS=0"]
 
 
 def test_the_benchmark_prints_the_ceiling_and_a_row_per_path(capsys):

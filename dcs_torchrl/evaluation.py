@@ -37,7 +37,7 @@ from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-__all__ = ["EVAL_THREADS", "EvalResult", "evaluate", "evaluate_in_processes"]
+__all__ = ["EVAL_THREADS", "EvalResult", "evaluate", "evaluate_in_processes", "torch_threads"]
 
 #: torch's threads while an evaluation runs (:func:`evaluate`'s ``threads``), in every path: one
 #: env here, a batched env, a process per env. On some CPUs torch's matrix products round
@@ -145,7 +145,7 @@ def evaluate(
     steps = 0
     if seed is not None:
         env.set_seed(seed)
-    with _torch_threads(threads), set_exploration_type(exploration_type), torch.no_grad():
+    with torch_threads(threads), set_exploration_type(exploration_type), torch.no_grad():
         td = env.reset()
         while finished < episodes:
             td = policy(td)
@@ -171,8 +171,10 @@ def evaluate(
 
 
 @contextlib.contextmanager
-def _torch_threads(threads: int | None):
-    """torch's intra-op threads set to ``threads`` inside (``None``: left alone), restored after."""
+def torch_threads(threads: int | None):
+    """torch's intra-op threads set to ``threads`` inside (``None``: left alone), this process's
+    count restored after (an evaluation's episodes; the env :class:`~dcs_torchrl.ParallelSuiteEnv`
+    steps in this process)."""
     own = torch.get_num_threads()
     if threads is not None:
         torch.set_num_threads(threads)

@@ -39,6 +39,7 @@ from torchrl.envs import EnvBase
 
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
+from dcs_torchrl.evaluation import torch_threads
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -243,18 +244,16 @@ class ParallelSuiteEnv(EnvBase):
         for pipe in self._remote(workers):
             pipe.send_bytes(command)
         if self._here is not None and 0 in workers:  # the first env, while the workers step theirs
-            threads = torch.get_num_threads()
-            torch.set_num_threads(1)  # as in a worker: torch's idle intra-op threads spin on the workers' cores
-            try:
-                self._here.run(command)
-            except BaseException as error:
+            # one thread, as in a worker: torch's idle intra-op threads spin on the workers' cores
+            with torch_threads(1):
                 try:
-                    self._wait(workers)  # their answers, so that the next command finds none pending
-                except RuntimeError as also:  # a worker failed too (and closed this env): the first env's error first
-                    error.add_note(f"Meanwhile: {also}")
-                raise error
-            finally:
-                torch.set_num_threads(threads)
+                    self._here.run(command)
+                except BaseException as error:
+                    try:
+                        self._wait(workers)  # their answers, so that the next command finds none pending
+                    except RuntimeError as also:  # a worker failed too (and closed this env): the first env's error first
+                        error.add_note(f"Meanwhile: {also}")
+                    raise error
         self._wait(workers)
 
     def _wait(self, workers) -> None:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 from dm_control import suite
-from torchrl.envs import Compose, DMControlEnv, ExcludeTransform, TransformedEnv
+from torchrl.envs import Compose, DMControlEnv, EnvBase, ExcludeTransform, TransformedEnv
 
 from dcs_torchrl import presets
 from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
@@ -42,6 +42,10 @@ class EnvSettings:
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+
+#: The renderers of :func:`make_env` (``backend``).
+BACKENDS = ("gl", "warp")
 
 
 def _check_task(domain: str, task: str) -> None:
@@ -137,7 +141,10 @@ def make_env(
     texture_size: int = 256,
     reference_blend: bool = False,
     device=None,
-) -> TransformedEnv:
+    num_envs: int | None = None,
+    backend: str = "gl",
+    masks: bool = False,
+) -> EnvBase:
     """A Distracting Control Suite env: dm_control physics, distractions, then one render.
 
     Builds ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False,
@@ -174,7 +181,18 @@ def make_env(
         reference_blend (bool): blend each episode's video onto the sky as this env last
             showed it, as the authors' 2021 code does (see :class:`BackgroundDistraction`),
             instead of onto the original sky as the paper describes. Only matters for β_bg < 1.
-        device: TorchRL device of the env.
+        device: TorchRL device of the env; with ``backend="warp"`` also where Warp renders
+            (``"cpu"``, the default, or ``"cuda"``).
+        num_envs (int, optional): with ``backend="warp"``, the number of envs of the batch
+            (default 1); the env's batch size is then ``[num_envs]``.
+        backend (str): ``"gl"`` (default): one env, rendered by MuJoCo's OpenGL renderer, the
+            reference the paper's numbers are compared with. ``"warp"``: ``num_envs`` envs in this
+            process, each with its own physics, task and distractions as on GL, rendered in one
+            batch by MuJoCo Warp (:class:`dcs_torchrl.batched.BatchedSuiteEnv`; ``pip install
+            "dcs-torchrl[warp]"``; docs/batched.md).
+        masks (bool): add ``"masks"``, a uint8 label per pixel (0 background, 1 floor, 2 agent:
+            :data:`dcs_torchrl.warp_render.MASK_LABELS`) from the render's segmentation;
+            ``backend="warp"`` only.
 
     Examples:
         >>> import dcs_torchrl as dcs
@@ -192,9 +210,46 @@ def make_env(
         background_dir=background_dir, ground_alpha=ground_alpha, action_repeat=action_repeat, camera_id=camera_id,
         reference_blend=reference_blend, texture_size=texture_size,
     )
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {list(BACKENDS)}.")
+    if num_envs is not None and (isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1):
+        raise ValueError(f"num_envs must be a positive integer (or None), got {num_envs!r}.")
+    if backend == "gl":
+        if num_envs is not None:
+            raise ValueError(
+                "num_envs is for backend='warp' (N envs in this process, rendered in one batch): pass "
+                "backend='warp', or run GL envs in processes with "
+                "dcs_torchrl.ParallelSuiteEnv(n, functools.partial(dcs_torchrl.make_env, domain, task, ...)).")
+        if masks:
+            raise ValueError("masks=True needs backend='warp' (its render gives the segmentation at no second "
+                             "render); the GL backend has no masks.")
     expose = bool(expose_distractions)
+    if backend == "warp":
+        from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv
+        from dcs_torchrl.warp_render import import_warp
+
+        import_warp()  # the extra's error first
+        if render_profile not in WARP_PROFILES:
+            raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
+                             f"{sorted(WARP_PROFILES)}.")
+        worlds = [_distracted_env(s, expose) for _ in range(1 if num_envs is None else num_envs)]
+        env = BatchedSuiteEnv(worlds, height=height, width=width, camera_id=s.camera_id,
+                              device="cpu" if device is None else device, pixels_only=pixels_only, masks=masks,
+                              render_profile=render_profile)
+    else:
+        env = _distracted_env(s, expose, device, RenderPixels(height, width, s.camera_id, profile=render_profile),
+                              pixels_only)
+    if seed is not None:
+        env.set_seed(seed)
+    return env
+
+
+def _distracted_env(s: EnvSettings, expose: bool, device=None, render: RenderPixels | None = None,
+                    pixels_only: bool = False) -> TransformedEnv:
+    """The suite's env of settings ``s``: the three distractions, then ``render`` (if any), then the
+    state observations dropped (``pixels_only``)."""
     kwargs = {} if device is None else {"device": device}
-    base = DMControlEnv(domain, task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
+    base = DMControlEnv(s.domain, s.task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
     transforms = Compose(
         CameraDistraction(s.camera_scale, s.dynamic, camera_id=s.camera_id, blind=s.blind, expose=expose),
         ColorDistraction(s.color_scale, s.dynamic, expose=expose),
@@ -203,11 +258,9 @@ def make_env(
             ground_alpha=s.ground_alpha, split=s.background_split, texture_size=s.texture_size,
             reference_blend=s.reference_blend, expose=expose,
         ),
-        RenderPixels(height, width, s.camera_id, profile=render_profile),
     )
+    if render is not None:
+        transforms.append(render)
     if pixels_only:
         transforms.append(ExcludeTransform(*base.observation_spec.keys(True, True)))
-    env = TransformedEnv(base, transforms)
-    if seed is not None:
-        env.set_seed(seed)
-    return env
+    return TransformedEnv(base, transforms)

@@ -139,10 +139,20 @@ class DistractionTransform(Transform):
         return self._write_state(tensordict_reset)
 
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
+        self.step_scene()
+        return self._write_state(next_tensordict)
+
+    def step_scene(self) -> None:
+        """What an agent step does to the scene: the walk advanced by ``frame_skip`` control steps,
+        the scene edited. ``_step`` calls it; so does a batched env that steps this transform's
+        physics itself (:class:`dcs_torchrl.batched.BatchedSuiteEnv`)."""
         scene = self._bind()
         self._advance(scene.frame_skip)
         self._edit_scene(scene.physics)
-        return self._write_state(next_tensordict)
+
+    def state(self) -> np.ndarray:
+        """The distraction's current state, as ``expose`` writes it."""
+        return self._state()
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         raise RuntimeError(
@@ -152,7 +162,7 @@ class DistractionTransform(Transform):
 
     def _write_state(self, tensordict: TensorDictBase) -> TensorDictBase:
         if self.expose:
-            tensordict.set(self.out_keys[0], torch.as_tensor(self._state()))
+            tensordict.set(self.out_keys[0], torch.as_tensor(self.state()))
         return tensordict
 
     def transform_observation_spec(self, observation_spec: Composite) -> Composite:

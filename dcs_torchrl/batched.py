@@ -1,0 +1,346 @@
+"""BatchedSuiteEnv: N suite envs in one process, their physics stepped here, rendered in one batch (MuJoCo Warp).
+
+``make_env(domain, task, ..., num_envs=N, backend="warp", device=...)`` builds it. Each env is the
+GL env's physics, task and distractions without its render: a
+``TransformedEnv(DMControlEnv(domain, task, from_pixels=False, frame_skip=k), Compose(CameraDistraction,
+ColorDistraction, BackgroundDistraction))``, seeded as TorchRL's batched envs seed their workers (env
+``i`` gets the seed env ``i - 1``'s ``set_seed`` returns). A reset goes through that env's own TorchRL
+``reset``; a step runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does, then
+each distraction's :meth:`~dcs_torchrl.distractions.base.DistractionTransform.step_scene`, the
+transform's own step. So env ``i``'s rewards, resets, terminations and distraction draws are those of
+env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
+(``tests/test_batched.py``). Then the N worlds' poses, colours and skies go, as whole arrays, to one
+:class:`~dcs_torchrl.warp_render.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
+
+Partial resets (``"_reset"``) and partial steps (``"_step"``, which TorchRL's ``rollout`` writes) act on
+the envs they name only; the others continue their episodes.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import mujoco
+import numpy as np
+import torch
+from dm_env import StepType
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Composite
+from torchrl.envs import EnvBase, TransformedEnv
+
+from dcs_torchrl._scene import locate
+from dcs_torchrl.distractions import BackgroundDistraction
+from dcs_torchrl.distractions.base import DistractionTransform
+from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, WorldState, skybox_faces
+
+__all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "scene_labels"]
+
+#: The Warp backend's render settings by ``render_profile``: ``"default"`` draws shadows as GL's
+#: default profile does; ``"fast"`` none.
+WARP_PROFILES = {"default": {"shadows": True}, "fast": {"shadows": False}}
+
+
+def scene_labels(model) -> tuple[np.ndarray, np.ndarray]:
+    """Per geom ``(agent, floor)``: agent = a geom of any body but the world (the robot and the task's
+    moving bodies); floor = a plane of the world body. Every other pixel is background (the sky and
+    the other static geoms)."""
+    body = np.asarray(model.geom_bodyid)
+    plane = np.asarray(model.geom_type) == mujoco.mjtGeom.mjGEOM_PLANE
+    return body != 0, (body == 0) & plane
+
+
+#: Default number of parts a batch is rendered in (:class:`BatchedSuiteEnv`'s ``render_chunks``).
+RENDER_CHUNKS = 4
+
+
+def _chunks(n: int, parts: int | None) -> list[range]:
+    """``n`` envs in ``parts`` contiguous, near-equal ranges."""
+    parts = RENDER_CHUNKS if parts is None else parts
+    if isinstance(parts, bool) or not isinstance(parts, int) or parts < 1:
+        raise ValueError(f"render_chunks must be a positive integer (or None), got {parts!r}.")
+    parts = min(parts, n)
+    bounds = [round(k * n / parts) for k in range(parts + 1)]
+    return [range(a, b) for a, b in zip(bounds, bounds[1:])]
+
+
+class _SkySink:
+    """Takes a world's new sky where :class:`~dcs_torchrl.RenderPixels` would upload it (the
+    background distraction's ``upload_textures(context)``) and writes it into that world's row."""
+
+    def __init__(self, rows: np.ndarray):
+        self.rows = rows  # [faces, side, side, 3] of this world
+
+    def upload_cube(self, tex_id: int, faces: list[np.ndarray], unchanging: bool = False) -> None:
+        if len(faces) != len(self.rows):
+            raise RuntimeError(f"expected {len(self.rows)} sky face(s), got {len(faces)}")
+        for row, face in zip(self.rows, faces):
+            row[...] = face
+
+
+class _World:
+    """One env of the batch: its TorchRL env (physics, task, distractions) and the arrays it fills."""
+
+    def __init__(self, env: TransformedEnv):
+        self.env = env
+        self.base = env.base_env
+        self.dm = self.base._env  # the dm_control Environment DMControlEnv steps
+        self.frame_skip = int(self.base.wrapper_frame_skip)
+        self.distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
+        self.exposed = [t for t in self.distractions if t.expose]
+        self.background = next((t for t in self.distractions if isinstance(t, BackgroundDistraction)), None)
+        self.physics = locate(self.distractions[0], strict=True).physics if self.distractions else self.dm.physics
+
+    def step(self, action: np.ndarray):
+        """``frame_skip`` dm_control steps (stopping at the episode's end), as ``DMControlEnv._step``;
+        then each distraction's step. Returns ``(observation, reward, terminated, truncated)``."""
+        reward = 0
+        terminated = truncated = False
+        for _ in range(self.frame_skip):
+            step = self.dm.step(action)
+            if step.reward is not None:
+                reward = reward + step.reward
+            if step.step_type == StepType.LAST:
+                if np.isclose(step.discount, 1):
+                    truncated = True
+                else:
+                    terminated = True
+                break
+        for t in self.distractions:
+            t.step_scene()
+        return step.observation, reward, terminated, truncated
+
+
+class BatchedSuiteEnv(EnvBase):
+    """N suite envs stepped in this process and rendered in one MuJoCo Warp call: batch size ``[N]``.
+
+    Built by :func:`dcs_torchrl.make_env` with ``num_envs=N, backend="warp"``; see the module's text.
+
+    Args:
+        envs (sequence of TransformedEnv): the N envs without a render, as ``make_env`` builds them
+            (a ``DMControlEnv(from_pixels=False)`` under the suite's distractions), one task.
+
+    Keyword Args:
+        height, width (int): the image size.
+        camera_id (int): the camera rendered.
+        device: where the batch lives and Warp renders: ``"cpu"`` or a CUDA device.
+        pixels_only (bool): drop the task's state observations.
+        masks (bool): add ``"masks"``, uint8 [N, H, W], labels :data:`~dcs_torchrl.warp_render.MASK_LABELS`.
+        render_profile (str): a key of :data:`WARP_PROFILES`.
+        render_chunks (int, optional): render the batch in this many parts, each while the next
+            part's physics steps (``None``: :data:`RENDER_CHUNKS`, at most one per env). The pixels
+            are the same for any value.
+    """
+
+    def __init__(self, envs: Sequence[TransformedEnv], *, height: int = 84, width: int = 84, camera_id: int = 0,
+                 device="cpu", pixels_only: bool = True, masks: bool = False, render_profile: str = "default",
+                 render_chunks: int | None = None):
+        if render_profile not in WARP_PROFILES:
+            raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
+                             f"{sorted(WARP_PROFILES)}.")
+        envs = list(envs)
+        if not envs:
+            raise ValueError("BatchedSuiteEnv needs at least one env (num_envs >= 1).")
+        device = torch.device(device)
+        super().__init__(batch_size=[len(envs)], device=device)
+        self.num_envs = n = len(envs)
+        self._worlds = [_World(env) for env in envs]
+        first = self._worlds[0]
+        self._state_keys = list(first.base.observation_spec.keys(True, True))
+        self._distraction_keys = [t.out_keys[0] for t in first.distractions if t.expose]
+        self.pixels_only, self.masks = bool(pixels_only), bool(masks)
+        self._set_specs(first.env, height, width)
+        model = first.physics.model
+        agent, floor = scene_labels(model)
+        # the batch is rendered in chunks, each by its own renderer, in a thread of its own while
+        # this thread steps the next chunk's physics (Warp's launches release the GIL)
+        self._chunks = _chunks(n, render_chunks)
+        self.renderers = [WarpRenderer(model, len(chunk), height, width, camera_id, device,
+                                       agent_geoms=agent if masks else None, floor_geoms=floor,
+                                       **WARP_PROFILES[render_profile]) for chunk in self._chunks]
+        background = first.background
+        if background is not None and background.active:  # each world's own sky, as its distraction writes it
+            background._bind()
+            side = background.texture_size
+            sky = lambda k: (k, 1 if background._sky_faces is None else 6, side, side, 3)  # noqa: E731
+        else:  # every world shows the model's sky
+            clean = self._clean_sky(model, height, camera_id)
+            sky = lambda k: (1, *clean.shape)  # noqa: E731
+        self._scenes = [WorldState.empty(model, len(chunk), sky(len(chunk))) for chunk in self._chunks]
+        self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
+        if background is not None and background.active:
+            self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where]
+        else:
+            self._sinks = None
+            for scene in self._scenes:
+                scene.sky[0] = clean
+        self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
+        self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
+        self._pending: list = []
+        self._obs = {key: np.zeros(spec.shape, np.float64) for key, spec in self._state_obs_spec.items(True, True)}
+        self._reward = np.zeros((n, 1), np.float64)
+        self._done = np.zeros((n, 3), bool)  # terminated, truncated, done
+        self._states = {key: np.zeros(spec.shape, torch.empty((), dtype=spec.dtype).numpy().dtype)
+                        for key, spec in self.observation_spec.items(True, True) if key in self._distraction_keys}
+        self.is_closed = False
+
+    # ------------------------------------------------------------------ set-up
+    def _set_specs(self, env: TransformedEnv, height: int, width: int) -> None:
+        n, device = self.num_envs, self.device
+        observation = env.observation_spec.clone()
+        self._state_obs_spec = Composite({key: observation[key] for key in self._state_keys}).expand(n).to(device)
+        if self.pixels_only:
+            for key in self._state_keys:
+                del observation[key]
+        observation["pixels"] = Bounded(0, 255, shape=(height, width, 3), dtype=torch.uint8, device=device)
+        if self.masks:
+            observation["masks"] = Bounded(0, max(MASK_LABELS.values()), shape=(height, width), dtype=torch.uint8,
+                                           device=device)
+        self.observation_spec = observation.expand(n).to(device)
+        self.action_spec = env.action_spec.expand(n, *env.action_spec.shape).to(device)
+        self.reward_spec = env.reward_spec.expand(n, *env.reward_spec.shape).to(device)
+        self.done_spec = env.full_done_spec.expand(n).to(device)
+
+    @staticmethod
+    def _clean_sky(model, height: int, camera_id: int) -> np.ndarray:
+        """The model's skybox, averaged down to about one texel per pixel of this camera (GL samples it
+        through mipmaps; Warp's renderer has none)."""
+        import cv2
+
+        faces = skybox_faces(model)
+        side = faces.shape[1]
+        fovy = float(model.cam_fovy[camera_id])
+        footprint = int(np.ceil(height / np.tan(np.radians(fovy) / 2)))  # pixels a face spans
+        if footprint >= side:
+            return faces
+        return np.stack([cv2.resize(f, (footprint, footprint), interpolation=cv2.INTER_AREA) for f in faces])
+
+    # --------------------------------------------------------------- gathering
+    def _gather(self, index: int) -> None:
+        """World ``index``'s scene into its chunk's arrays."""
+        world = self._worlds[index]
+        chunk, row = self._where[index]
+        scene = self._scenes[chunk]
+        data, model = world.physics.data, world.physics.model
+        scene.geom_xpos[row] = data.geom_xpos
+        scene.geom_xmat[row] = data.geom_xmat
+        scene.cam_xpos[row] = data.cam_xpos
+        scene.cam_xmat[row] = data.cam_xmat
+        scene.light_xpos[row] = data.light_xpos
+        scene.light_xdir[row] = data.light_xdir
+        scene.mat_rgba[row] = model.mat_rgba
+        if self._sinks is not None:
+            world.background.upload_textures(self._sinks[index])
+
+    def _render_chunk(self, chunk: int) -> None:
+        """Renders chunk ``chunk`` into this env's pixel (and label) buffers: now, or in the render
+        thread while the caller goes on."""
+        span = self._chunks[chunk]
+
+        def render():
+            pixels, labels = self.renderers[chunk].render(self._scenes[chunk])
+            self._pixels[span.start:span.stop].copy_(pixels)
+            if labels is not None:
+                self._labels[span.start:span.stop].copy_(labels)
+
+        if self._pool is None:
+            render()
+        else:
+            self._pending.append(self._pool.submit(render))
+
+    def _each_world(self, indices, act) -> None:
+        """``act(i)`` for the worlds ``indices``, chunk by chunk, each chunk rendered once its worlds
+        are done (every chunk is rendered, so that every env's frame is its current scene)."""
+        todo = set(indices)
+        for chunk, span in enumerate(self._chunks):
+            for i in span:
+                if i in todo:
+                    act(i)
+            self._render_chunk(chunk)
+        pending, self._pending = self._pending, []
+        for future in pending:
+            future.result()
+
+    def _read(self, index: int, observation) -> None:
+        for key in self._state_keys:
+            name = "state" if key == "observation" and "observation" not in observation else key
+            self._obs[key][index] = np.reshape(observation[name], self._obs[key].shape[1:])
+        self._read_states(index)
+
+    def _read_states(self, index: int) -> None:
+        for key, t in zip(self._distraction_keys, self._worlds[index].exposed):
+            self._states[key][index] = t.state()
+
+    def _output(self, with_reward: bool) -> TensorDictBase:
+        out = {"pixels": self._pixels.clone()}
+        if self._labels is not None:
+            out["masks"] = self._labels.clone()
+        if not self.pixels_only:
+            out.update({key: torch.from_numpy(value.copy()) for key, value in self._obs.items()})
+        for key, value in self._states.items():
+            out[key] = torch.from_numpy(value.copy())
+        done = torch.from_numpy(self._done.copy())
+        out.update(terminated=done[:, 0:1], truncated=done[:, 1:2], done=done[:, 2:3])
+        if with_reward:
+            out["reward"] = torch.from_numpy(self._reward.copy()).to(self.reward_spec.dtype)
+        return TensorDict(out, batch_size=self.batch_size).to(self.device)
+
+    # ------------------------------------------------------------- TorchRL hooks
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        self._check_open()
+        actions = tensordict.get(self.action_key).detach().cpu().numpy()
+        partial = tensordict.get("_step", None)
+        indices = range(self.num_envs) if partial is None else partial.reshape(self.num_envs).nonzero().flatten().tolist()
+        self._reward[:] = 0.0
+
+        def step(i: int) -> None:
+            observation, reward, terminated, truncated = self._worlds[i].step(actions[i])
+            self._reward[i] = reward
+            self._done[i] = (terminated, truncated, terminated or truncated)
+            self._read(i, observation)
+            self._gather(i)
+
+        self._each_world(indices, step)
+        return self._output(with_reward=True)
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        self._check_open()
+        indices = range(self.num_envs)
+        if tensordict is not None and "_reset" in tensordict.keys():
+            indices = tensordict.get("_reset").reshape(self.num_envs, -1).any(-1).nonzero().flatten().tolist()
+
+        def reset(i: int) -> None:
+            observation = self._worlds[i].env.reset()  # the env's own reset: physics, task, distractions
+            self._done[i] = False
+            for key in self._state_keys:
+                self._obs[key][i] = observation.get(key).numpy()
+            self._read_states(i)
+            self._gather(i)
+
+        self._each_world(indices, reset)
+        return self._output(with_reward=False)
+
+    def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
+        """Seeds env 0 with ``seed`` and each next env with what the previous one's ``set_seed``
+        returns (TorchRL's batched envs); returns the last env's return."""
+        for world in self._worlds:
+            seed = world.env.set_seed(seed, static_seed=static_seed)
+        return seed
+
+    def _set_seed(self, seed: int | None) -> None:  # set_seed is overridden: never called
+        raise NotImplementedError
+
+    def _check_open(self) -> None:
+        if self.is_closed:
+            raise RuntimeError("this BatchedSuiteEnv is closed: build a new one with make_env.")
+
+    def close(self, *, raise_if_closed: bool = True) -> None:
+        if self.is_closed:
+            if raise_if_closed:
+                raise RuntimeError("BatchedSuiteEnv is closed already.")
+            return
+        self.is_closed = True
+        if self._pool is not None:
+            self._pool.shutdown()
+        for world in self._worlds:
+            world.env.close()

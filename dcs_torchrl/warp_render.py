@@ -1,0 +1,308 @@
+"""WarpRenderer: one batched render of N worlds of one dm_control model through MuJoCo Warp's ray tracer.
+
+The worlds' state reaches the renderer as whole arrays (:class:`WorldState`: geom, camera and
+light poses, material colours, the sky of each world), wherever they come from: here, from N
+dm_control physics stepped in this process (:mod:`dcs_torchrl.batched`). One call ray-traces every
+world's camera (MuJoCo Warp's ``render``: the scene BVH refitted, shading with the model's lights,
+textures, optional shadows) with the sky left black, then one kernel of this module finishes each
+pixel as MuJoCo's OpenGL renderer does for the suite's scenes:
+
+* where a ray meets nothing, the world's sky (a cube map: six faces, or one face on all six as the
+  background distraction writes it) sampled along the pixel's ray, bilinear;
+* where it meets a surface whose colour is not opaque (the floor at the preset's ``ground_alpha``),
+  ``alpha * surface + (1 - alpha) * sky``, the sky seen through it, as GL's alpha blending over the
+  skybox draws it (a transparent surface in front of another body is not handled: none of the
+  suite's scenes has one);
+* with ``masks``, a label per pixel (:data:`MASK_LABELS`) from the same trace's segmentation.
+
+What differs from GL (no reflections, no multisampling, no mipmaps) is measured in docs/results.md,
+"Warp backend fidelity". MuJoCo Warp (``pip install "dcs-torchrl[warp]"``) is imported on first use.
+"""
+# no "from __future__ import annotations": Warp reads its kernels' annotations as objects
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import mujoco
+import numpy as np
+import torch
+
+#: The labels of ``masks`` (uint8 per pixel).
+MASK_LABELS: MappingProxyType[str, int] = MappingProxyType({"background": 0, "floor": 1, "agent": 2})
+
+WARP_EXTRA_HINT = 'backend="warp" needs MuJoCo Warp: pip install "dcs-torchrl[warp]" (mujoco-warp and warp-lang).'
+
+
+def import_warp():
+    """``(warp, mujoco_warp)``, or an ImportError naming the extra to install."""
+    try:
+        import warp
+
+        warp.config.quiet = True  # before Warp initialises: no banner
+        warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)  # no line per module loaded
+        import mujoco_warp
+    except ImportError as error:  # pragma: no cover - exercised where the extra is missing
+        raise ImportError(WARP_EXTRA_HINT) from error
+    return warp, mujoco_warp
+
+
+def warp_device(device) -> str:
+    """Warp's name of a torch device: ``"cpu"`` or ``"cuda:<i>"``."""
+    device = torch.device("cpu" if device is None else device)
+    if device.type == "cpu":
+        return "cpu"
+    if device.type == "cuda":
+        return f"cuda:{0 if device.index is None else device.index}"
+    raise ValueError(f'backend="warp" renders on "cpu" or a CUDA device, got {device}.')
+
+
+@dataclass
+class WorldState:
+    """What the renderer reads of N worlds, as whole arrays (numpy, float64 as MuJoCo keeps them).
+
+    ``sky`` is uint8 ``[n or 1, faces, side, side, 3]``, faces 6 (MuJoCo's cube order +X, -X, +Y,
+    -Y, +Z, -Z) or 1 (one face on all six); a leading 1 is shared by every world.
+    """
+
+    geom_xpos: np.ndarray  # [n, ngeom, 3]
+    geom_xmat: np.ndarray  # [n, ngeom, 9]
+    cam_xpos: np.ndarray  # [n, ncam, 3]
+    cam_xmat: np.ndarray  # [n, ncam, 9]
+    light_xpos: np.ndarray  # [n, nlight, 3]
+    light_xdir: np.ndarray  # [n, nlight, 3]
+    mat_rgba: np.ndarray  # [n, nmat, 4]
+    sky: np.ndarray  # [n or 1, faces, side, side, 3] uint8
+
+    @classmethod
+    def empty(cls, model, n: int, sky_shape: tuple[int, ...]) -> "WorldState":
+        f64 = np.float64
+        return cls(
+            geom_xpos=np.zeros((n, model.ngeom, 3), f64), geom_xmat=np.zeros((n, model.ngeom, 9), f64),
+            cam_xpos=np.zeros((n, model.ncam, 3), f64), cam_xmat=np.zeros((n, model.ncam, 9), f64),
+            light_xpos=np.zeros((n, model.nlight, 3), f64), light_xdir=np.zeros((n, model.nlight, 3), f64),
+            mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=np.zeros(sky_shape, np.uint8),
+        )
+
+
+def skybox_faces(model) -> np.ndarray:
+    """The model's skybox as uint8 ``[6 or 1, side, side, 3]`` (its texture data, faces stacked)."""
+    skyboxes = np.flatnonzero(model.tex_type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)
+    if len(skyboxes) == 0:
+        return np.zeros((1, 1, 1, 3), np.uint8)
+    sky = int(skyboxes[0])
+    width, height, nc = int(model.tex_width[sky]), int(model.tex_height[sky]), int(model.tex_nchannel[sky])
+    adr = int(model.tex_adr[sky])
+    data = np.asarray(model.tex_data[adr: adr + width * height * nc]).reshape(height // width, width, width, nc)
+    return np.ascontiguousarray(data[..., :3])
+
+
+_KERNELS: dict = {}
+
+
+def _kernels(wp):
+    """The compositing kernel (built once per process; Warp caches its compiled code on disk)."""
+    if _KERNELS:
+        return _KERNELS["finish"]
+
+    @wp.func
+    def sky_texel(sky: wp.array(dtype=wp.uint8, ndim=4), world: int, face: int, x: int, y: int, c: int) -> float:
+        return float(sky[world, face * sky.shape[2] + y, x, c])
+
+    @wp.func
+    def sample_sky(sky: wp.array(dtype=wp.uint8, ndim=4), world: int, d: wp.vec3) -> wp.vec3:
+        # MuJoCo's cube-map frame: s = x, t = z, r = -y (render_gl3.c); faces +X, -X, +Y, -Y, +Z, -Z
+        rx = d[0]
+        ry = d[2]
+        rz = -d[1]
+        ax = wp.abs(rx)
+        ay = wp.abs(ry)
+        az = wp.abs(rz)
+        face = int(0)
+        sc = float(0.0)
+        tc = float(0.0)
+        ma = float(1.0)
+        if ax >= ay and ax >= az:
+            ma = ax
+            if rx > 0.0:
+                face = 0
+                sc = -rz
+                tc = -ry
+            else:
+                face = 1
+                sc = rz
+                tc = -ry
+        elif ay >= az:
+            ma = ay
+            if ry > 0.0:
+                face = 2
+                sc = rx
+                tc = rz
+            else:
+                face = 3
+                sc = rx
+                tc = -rz
+        else:
+            ma = az
+            if rz > 0.0:
+                face = 4
+                sc = rx
+                tc = -ry
+            else:
+                face = 5
+                sc = -rx
+                tc = -ry
+        side = sky.shape[2]
+        if sky.shape[1] == side:  # one face on all six
+            face = 0
+        # texel centres at (i + 0.5) / side, clamped at the face's edges (GL_CLAMP_TO_EDGE)
+        u = ((sc / ma + 1.0) * 0.5) * float(side) - 0.5
+        v = ((tc / ma + 1.0) * 0.5) * float(side) - 0.5
+        u = wp.clamp(u, 0.0, float(side - 1))
+        v = wp.clamp(v, 0.0, float(side - 1))
+        x0 = int(wp.floor(u))
+        y0 = int(wp.floor(v))
+        x1 = wp.min(x0 + 1, side - 1)
+        y1 = wp.min(y0 + 1, side - 1)
+        fx = u - float(x0)
+        fy = v - float(y0)
+        w = world % sky.shape[0]
+        out = wp.vec3(0.0, 0.0, 0.0)
+        for c in range(3):
+            top = (1.0 - fx) * sky_texel(sky, w, face, x0, y0, c) + fx * sky_texel(sky, w, face, x1, y0, c)
+            bottom = (1.0 - fx) * sky_texel(sky, w, face, x0, y1, c) + fx * sky_texel(sky, w, face, x1, y1, c)
+            out[c] = (1.0 - fy) * top + fy * bottom
+        return out
+
+    @wp.kernel
+    def finish(
+        packed: wp.array2d(dtype=wp.uint32),
+        seg: wp.array2d(dtype=wp.vec2i),
+        rays: wp.array(dtype=wp.vec3),
+        cam_xmat: wp.array2d(dtype=wp.mat33),
+        camera: int,
+        alpha: wp.array2d(dtype=float),
+        agent: wp.array(dtype=wp.uint8),
+        sky: wp.array(dtype=wp.uint8, ndim=4),
+        width: int,
+        pixels: wp.array(dtype=wp.uint8, ndim=4),
+        labels: wp.array3d(dtype=wp.uint8),
+        want_labels: int,
+    ):  # writes pixels and labels
+        world, pixel = wp.tid()
+        y = pixel // width
+        x = pixel - y * width
+        value = packed[world, pixel]
+        color = wp.vec3(float((value >> wp.uint32(16)) & wp.uint32(255)),
+                        float((value >> wp.uint32(8)) & wp.uint32(255)),
+                        float(value & wp.uint32(255)))
+        geom = seg[world, pixel][0]
+        a = float(0.0)  # a ray that meets nothing shows the sky
+        if geom >= 0:
+            a = alpha[world, geom]
+        if a < 1.0:
+            d = cam_xmat[world, camera] * rays[pixel]
+            color = a * color + (1.0 - a) * sample_sky(sky, world, d)
+        for c in range(3):
+            pixels[world, y, x, c] = wp.uint8(wp.clamp(wp.round(color[c]), 0.0, 255.0))
+        if want_labels != 0:
+            label = wp.uint8(0)
+            if geom >= 0:
+                label = agent[geom]
+            labels[world, y, x] = label
+
+    _KERNELS["finish"] = finish
+    return finish
+
+
+class WarpRenderer:
+    """Renders camera ``camera_id`` of ``n`` worlds of one MuJoCo model into uint8 ``[n, height, width, 3]``.
+
+    Args:
+        model: the ``mujoco.MjModel`` every world shares (the per-world parts are in :class:`WorldState`).
+        n (int): the number of worlds.
+        height, width (int): the image size.
+        camera_id (int): the camera rendered (one per world).
+        device: ``"cpu"`` or a CUDA device; the images are torch tensors there.
+
+    Keyword Args:
+        shadows (bool): MuJoCo Warp's shadow rays (GL draws shadows).
+        agent_geoms (array of bool, optional): per geom, whether it is part of the agent; the
+            labels of :meth:`render` are then :data:`MASK_LABELS` (``None``: no labels).
+        floor_geoms (array of bool, optional): per geom, whether it is floor (label 1).
+    """
+
+    def __init__(self, model, n: int, height: int, width: int, camera_id: int, device="cpu", *,
+                 shadows: bool = True, agent_geoms=None, floor_geoms=None):
+        wp, mjw = import_warp()
+        self._wp = wp
+        self.n, self.height, self.width, self.camera_id = int(n), int(height), int(width), int(camera_id)
+        if not 0 <= self.camera_id < model.ncam:
+            raise ValueError(f'backend="warp" renders a model camera: camera_id={camera_id} is not in [0, {model.ncam}).')
+        self.device = warp_device(device)
+        self.torch_device = torch.device(self.device)
+        mjm = model.ptr if hasattr(model, "ptr") else model
+        with wp.ScopedDevice(self.device):
+            self.model = mjw.put_model(mjm, batch_sizes={"mat_rgba": self.n})
+            self.data = mjw.make_data(mjm, nworld=self.n, nconmax=1, njmax=1)
+            self.context = mjw.create_render_context(
+                mjm, nworld=self.n, cam_res=(self.width, self.height), render_rgb=True, render_depth=False,
+                render_seg=True, use_textures=True, use_shadows=bool(shadows), cam_active=[self.camera_id],
+                render_skybox=False, background_color=(0.0, 0.0, 0.0, 1.0),
+            )
+            self.pixels = wp.zeros((self.n, self.height, self.width, 3), dtype=wp.uint8)
+            self.want_labels = agent_geoms is not None
+            self.labels = wp.zeros((self.n, self.height, self.width) if self.want_labels else (1, 1, 1), dtype=wp.uint8)
+            label = np.zeros(mjm.ngeom, np.uint8)
+            if self.want_labels:
+                label[np.asarray(agent_geoms, bool)] = MASK_LABELS["agent"]
+                if floor_geoms is not None:
+                    label[np.asarray(floor_geoms, bool)] = MASK_LABELS["floor"]
+            self._geom_label = wp.array(label, dtype=wp.uint8)
+            self._alpha = wp.zeros((self.n, mjm.ngeom), dtype=float)
+            self._sky = None
+        self._mjw = mjw
+        # the colour (geom's or material's, as MuJoCo picks it) whose alpha says how much sky shows through
+        self._geom_matid = np.asarray(mjm.geom_matid).copy()
+        self._geom_rgba = np.asarray(mjm.geom_rgba).copy()
+        self._uses_material = (self._geom_matid >= 0) & np.all(self._geom_rgba == (0.5, 0.5, 0.5, 1.0), axis=1)
+        self._finish = _kernels(wp)
+        self._pixels_torch = wp.to_torch(self.pixels)
+        self._labels_torch = wp.to_torch(self.labels)
+
+    def _put(self, target, values: np.ndarray, dtype) -> None:
+        """Copies ``values`` (host) into the Warp array ``target`` (same shape)."""
+        wp = self._wp
+        source = wp.array(np.ascontiguousarray(values), dtype=dtype, device="cpu", copy=False)
+        wp.copy(target, source)
+
+    def render(self, state: WorldState) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """Renders every world of ``state``: ``(pixels [n, h, w, 3] uint8, labels [n, h, w] uint8 or None)``.
+
+        The tensors are this renderer's buffers, overwritten by the next call: copy to keep them.
+        """
+        wp, mjw, d, m, rc = self._wp, self._mjw, self.data, self.model, self.context
+        n = self.n
+        with wp.ScopedDevice(self.device):
+            self._put(d.geom_xpos, state.geom_xpos, wp.vec3)
+            self._put(d.geom_xmat, state.geom_xmat.reshape(n, -1, 3, 3), wp.mat33)
+            self._put(d.cam_xpos, state.cam_xpos, wp.vec3)
+            self._put(d.cam_xmat, state.cam_xmat.reshape(n, -1, 3, 3), wp.mat33)
+            if m.nlight:
+                self._put(d.light_xpos, state.light_xpos, wp.vec3)
+                self._put(d.light_xdir, state.light_xdir, wp.vec3)
+            self._put(m.mat_rgba, state.mat_rgba.astype(np.float32, copy=False), wp.vec4)
+            alpha = np.where(self._uses_material[None], state.mat_rgba[:, self._geom_matid.clip(0), 3],
+                             self._geom_rgba[None, :, 3])
+            self._put(self._alpha, alpha.astype(np.float32), float)
+            n_sky, faces, side = state.sky.shape[:3]
+            strip = state.sky.reshape(n_sky, faces * side, side, 3)  # faces stacked, as in MuJoCo's texture
+            if self._sky is None or tuple(self._sky.shape) != strip.shape:
+                self._sky = wp.zeros(strip.shape, dtype=wp.uint8)
+            self._put(self._sky, strip, wp.uint8)
+            mjw.refit_bvh(m, d, rc)
+            mjw.render(m, d, rc)
+            wp.launch(
+                self._finish, dim=(n, self.height * self.width),
+                inputs=[rc.rgb_data, rc.seg_data, rc.ray, d.cam_xmat, self.camera_id, self._alpha, self._geom_label,
+                        self._sky, self.width, self.pixels, self.labels, int(self.want_labels)],
+            )
+        return self._pixels_torch, (self._labels_torch if self.want_labels else None)

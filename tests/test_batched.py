@@ -1,0 +1,289 @@
+"""backend="warp": N envs in one process, each the episodes and distraction draws of one GL env with its seed."""
+import functools
+
+import numpy as np
+import pytest
+import torch
+from torchrl.collectors import Collector
+from torchrl.envs import Compose, DMControlEnv, TransformedEnv
+from torchrl.envs.utils import check_env_specs
+
+import dcs_torchrl as dcs
+from dcs_torchrl import BackgroundDistraction, make_env
+from dcs_torchrl.batched import BatchedSuiteEnv, _chunks
+from dcs_torchrl.warp_render import MASK_LABELS
+
+pytest.importorskip("mujoco_warp")
+
+EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
+SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True,
+                pixels_only=False)
+STATE_KEYS = ["position", "velocity", "reward", "done", "terminated", "truncated", "distractions"]
+
+
+def _gl(**extra):
+    return functools.partial(make_env, "cartpole", "swingup", **{**SETTINGS, **extra})
+
+
+def _warp(n: int, **extra):
+    return make_env("cartpole", "swingup", num_envs=n, backend="warp", **{**SETTINGS, **extra})
+
+
+def _seeds(seed: int, n: int, factory) -> list[int]:
+    """Each env's seed under TorchRL's chain: the next is what the previous one's set_seed returns."""
+    seeds = [seed]
+    for _ in range(n - 1):
+        seeds.append(factory().set_seed(seeds[-1]))
+    return seeds
+
+
+def _actions(steps: int, n: int) -> torch.Tensor:
+    return (torch.rand(steps, n, 1, generator=torch.Generator().manual_seed(0)) * 2 - 1).double()
+
+
+def _gl_run(seed: int, actions: torch.Tensor, factory) -> list:
+    """The entries of STATE_KEYS after each action, one GL env, reset at each episode's end."""
+    env = factory()
+    env.set_seed(seed)
+    td, out = env.reset(), [None]
+    out[0] = td.select(*[k for k in STATE_KEYS if k in td.keys()]).clone()
+    for action in actions:
+        td = env.step(td.set("action", action))["next"]
+        out.append(td.select(*STATE_KEYS).clone())
+        if td["done"].item():
+            td = env.reset()
+    env.close()
+    return out
+
+
+def _assert_same(batched, alone, where: str) -> None:
+    for key in batched.keys(True, True):
+        assert torch.equal(batched[key], alone[key].to(batched[key].dtype)), f"{where}: {key} differs"
+
+
+@pytest.mark.parametrize("extra", [{}, {"dynamic": False, "benchmark": "hard"}, {"background_blend": 0.5, "reference_blend": True}],
+                         ids=["medium-dynamic", "hard-static", "reference-blend"])
+def test_each_env_of_the_batch_runs_the_episodes_of_one_gl_env_with_its_seed(extra):
+    n, steps = 3, 2 * EPISODE + 3  # across an episode end and a reset
+    env = _warp(n, **extra)
+    env.set_seed(7)
+    actions = _actions(steps, n)
+    td = env.reset()
+    batched = [td.select(*[k for k in STATE_KEYS if k in td.keys()]).clone()]
+    for action in actions:
+        td.set("action", action)
+        out, td = env.step_and_maybe_reset(td)
+        batched.append(out["next"].select(*STATE_KEYS).clone())
+    env.close()
+    factory = _gl(**extra)
+    for i, seed in enumerate(_seeds(7, n, factory)):
+        alone = _gl_run(seed, actions[:, i], factory)
+        for t, (b, a) in enumerate(zip(batched, alone)):
+            _assert_same(b[i], a, f"env {i}, step {t}")
+    assert any(b["done"].any() for b in batched)
+
+
+def test_the_batch_equals_parallel_suite_env_seeded_alike():
+    n, steps = 2, EPISODE + 2
+    actions = _actions(steps, n)
+    runs = []
+    for env in (_warp(n), dcs.ParallelSuiteEnv(n, _gl())):
+        env.set_seed(3)
+        td, run = env.reset(), []
+        for action in actions:
+            out, td = env.step_and_maybe_reset(td.set("action", action))
+            run.append(out["next"].select(*STATE_KEYS).clone())
+        env.close()
+        runs.append(run)
+    for t, (b, p) in enumerate(zip(*runs)):
+        _assert_same(b, p, f"step {t}")
+
+
+def _continue_alone(seed: int, steps_before: int, actions: torch.Tensor) -> list:
+    """One GL env stepped ``steps_before`` actions, then ``actions``, with no reset between."""
+    env = _gl()()
+    env.set_seed(seed)
+    td = env.reset()
+    out = []
+    for k, action in enumerate(actions):
+        td = env.step(td.set("action", action))["next"]
+        if k >= steps_before:
+            out.append(td.select(*STATE_KEYS).clone())
+    env.close()
+    return out
+
+
+def test_an_env_not_reset_continues_its_episode():
+    n = 2
+    actions = _actions(6, n)
+    env = _warp(n)
+    env.set_seed(11)
+    td = env.reset()
+    for action in actions[:3]:
+        td = env.step(td.set("action", action))["next"]
+    td.set("_reset", torch.tensor([[True], [False]]))
+    td = env.reset(td)
+    later = []
+    for action in actions[3:]:
+        td = env.step(td.set("action", action))["next"]
+        later.append(td.select(*STATE_KEYS).clone())
+    env.close()
+    seeds = _seeds(11, n, _gl())
+    alone = _continue_alone(seeds[1], 3, actions[:, 1])
+    for t, (b, a) in enumerate(zip(later, alone)):
+        _assert_same(b[1], a, f"env 1 (not reset), step {t}")
+    first = _gl()()
+    first.set_seed(seeds[0])
+    first.reset()
+    for action in actions[:3, 0]:
+        first.rand_step()  # the first episode's steps, whatever they were
+    reset = first.reset()
+    assert not torch.equal(later[0][0]["position"], reset["position"])  # env 0 moved on from a new start
+    first.close()
+
+
+def test_an_env_not_stepped_keeps_its_state():
+    n = 2
+    env = _warp(n)
+    env.set_seed(5)
+    td = env.reset()
+    before = td["position"].clone()
+    td.set("action", _actions(1, n)[0])
+    td.set("_step", torch.tensor([True, False]))
+    out = env.step(td)["next"]
+    assert torch.equal(out["position"][1], before[1])
+    assert not torch.equal(out["position"][0], before[0])
+    env.close()
+
+
+def test_rollout_with_partial_steps_and_a_collector():
+    env = _warp(2, pixels_only=True, expose_distractions=False)
+    env.set_seed(0)
+    td = env.rollout(EPISODE + 3, break_when_any_done=False, break_when_all_done=True)
+    assert td["next", "pixels"].shape == (2, EPISODE, 32, 32, 3)
+    assert td["next", "pixels"].dtype == torch.uint8
+    collector = Collector(env, None, frames_per_batch=8, total_frames=16)
+    batches = list(collector)
+    collector.shutdown()
+    assert [b["next", "pixels"].shape for b in batches] == [(2, 4, 32, 32, 3)] * 2
+
+
+@pytest.mark.parametrize("domain, task", sorted(dcs.TASKS))
+@pytest.mark.parametrize("benchmark", ["none", "medium"])
+def test_check_env_specs_on_every_task(domain, task, benchmark):
+    env = make_env(domain, task, benchmark=benchmark, dynamic=benchmark == "medium", num_envs=2, backend="warp",
+                   height=24, width=24, expose_distractions=True, masks=True, seed=0)
+    check_env_specs(env)
+    env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("domain, task", sorted(dcs.TASKS))
+@pytest.mark.parametrize("benchmark", sorted(dcs.BENCHMARKS))
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_check_env_specs_on_every_task_benchmark_and_dynamic(domain, task, benchmark, dynamic):
+    env = make_env(domain, task, benchmark=benchmark, dynamic=dynamic, num_envs=2, backend="warp",
+                   height=24, width=24, expose_distractions=True, masks=True, seed=0)
+    check_env_specs(env)
+    env.close()
+
+
+def _gl_frame(env_kwargs: dict, seed: int) -> tuple[np.ndarray, dict]:
+    env = make_env("cartpole", "swingup", seed=seed, **env_kwargs)
+    td = env.reset()
+    frame = td["pixels"].numpy()
+    env.close()
+    return frame, td
+
+
+def test_a_clean_frame_is_the_gl_frame_within_a_few_grey_levels():
+    kwargs = dict(height=64, width=64)
+    gl, _ = _gl_frame(kwargs, 0)
+    env = make_env("cartpole", "swingup", seed=0, num_envs=1, backend="warp", **kwargs)
+    warp = env.reset()["pixels"][0].numpy()
+    env.close()
+    assert np.abs(warp.astype(int) - gl.astype(int)).mean() < 6
+
+
+def _red_sky_envs(n: int, ground_alpha: float) -> list:
+    red = np.zeros((4, 32, 32, 3), np.uint8)
+    red[..., 0] = 255
+    return [TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=8),
+                           Compose(BackgroundDistraction([red], ground_alpha=ground_alpha, seed=i))) for i in range(n)]
+
+
+def test_the_video_fills_the_sky_and_shows_through_the_floor_at_ground_alpha():
+    env = BatchedSuiteEnv(_red_sky_envs(2, 0.0), height=48, width=48, masks=True)
+    td = env.reset()
+    pixels, labels = td["pixels"].numpy(), td["masks"].numpy()
+    sky = labels == MASK_LABELS["background"]
+    assert sky.mean() > 0.5 and (labels == MASK_LABELS["agent"]).any()
+    assert not (labels == MASK_LABELS["floor"]).any()  # a floor of alpha 0 is not drawn: sky
+    rails = sky & (pixels[..., 1] > 0)  # the rails are static world geoms, labelled background
+    assert (pixels[sky & ~rails][:, 0] == 255).all() and (pixels[sky & ~rails][:, 1:] == 0).all()
+    env.close()
+    env = BatchedSuiteEnv(_red_sky_envs(1, 0.3), height=48, width=48, masks=True)
+    td = env.reset()
+    floor = td["masks"][0].numpy() == MASK_LABELS["floor"]
+    opaque = BatchedSuiteEnv(_red_sky_envs(1, 1.0), height=48, width=48).reset()["pixels"][0].numpy()
+    pixels = td["pixels"][0].numpy().astype(float)
+    # 0.3 floor + 0.7 red sky, to rounding
+    expected = 0.3 * opaque[floor].astype(float) + 0.7 * np.array([255.0, 0, 0])
+    assert floor.mean() > 0.1 and np.abs(pixels[floor] - expected).max() <= 1.0
+    env.close()
+
+
+def test_masks_label_the_floor_and_the_agent():
+    env = make_env("cheetah", "run", num_envs=1, backend="warp", masks=True, height=48, width=48, seed=0)
+    labels = env.reset()["masks"][0].numpy()
+    assert set(np.unique(labels)) == set(MASK_LABELS.values())
+    rows = np.arange(labels.shape[0])[:, None].repeat(labels.shape[1], 1)
+    # the floor (a strip, with sky below it) lies under the cheetah
+    assert np.median(rows[labels == MASK_LABELS["floor"]]) > np.median(rows[labels == MASK_LABELS["agent"]])
+    assert (labels[:3] == MASK_LABELS["background"]).all()  # the top rows are sky
+    env.close()
+
+
+def test_colours_and_camera_change_the_frames_per_env():
+    env = make_env("cartpole", "swingup", benchmark="medium", num_envs=3, backend="warp", height=32, width=32, seed=0)
+    pixels = env.reset()["pixels"]
+    assert not torch.equal(pixels[0], pixels[1]) and not torch.equal(pixels[1], pixels[2])
+    env.close()
+
+
+def test_render_chunks_give_the_same_pixels():
+    from dcs_torchrl.envs import _distracted_env, resolve_settings
+
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True)
+    frames = []
+    for chunks in (1, 3):
+        env = BatchedSuiteEnv([_distracted_env(settings, False) for _ in range(5)], height=24, width=24,
+                              render_chunks=chunks)
+        assert [len(r) for r in env._chunks] == ([5] if chunks == 1 else [2, 1, 2])
+        env.set_seed(0)
+        td, run = env.reset(), []
+        for action in _actions(3, 5):
+            td = env.step(td.set("action", action))["next"]
+            run.append(td["pixels"])
+        frames.append(torch.stack(run))
+        env.close()
+    assert torch.equal(frames[0], frames[1])
+
+
+def test_bad_settings_are_refused_with_the_fix():
+    with pytest.raises(ValueError, match="backend='warp'"):
+        make_env("cartpole", "swingup", num_envs=2)
+    with pytest.raises(ValueError, match="masks=True needs backend='warp'"):
+        make_env("cartpole", "swingup", masks=True)
+    with pytest.raises(ValueError, match="unknown backend"):
+        make_env("cartpole", "swingup", backend="vulkan")
+    with pytest.raises(ValueError, match="num_envs must be a positive integer"):
+        make_env("cartpole", "swingup", backend="warp", num_envs=0)
+    with pytest.raises(ValueError, match="camera_id=-1"):
+        make_env("cartpole", "swingup", backend="warp", camera_id=-1)
+    with pytest.raises(ValueError, match="render_chunks"):
+        _chunks(4, 0)
+    env = _warp(1)
+    env.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        env.reset()

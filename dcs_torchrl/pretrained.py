@@ -167,7 +167,8 @@ class Pretrained:
 
         return int(self._cfg.seed) + EVAL_SEED_OFFSET
 
-    def evaluate(self, episodes: int, *, workers: int = 1, **settings):
+    def evaluate(self, episodes: int, *, workers: int = 1, backend: str = "gl", num_envs: int | None = None,
+                 **settings):
         """The recipes' final evaluation of this agent in an env of make_env ``settings``.
 
         ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
@@ -183,19 +184,27 @@ class Pretrained:
           batch in this process.
 
         Both give every episode the return of that episode run alone (up to the batch's float
-        rounding on a GPU). Returns an :class:`~dcs_torchrl.evaluation.EvalResult`.
+        rounding on a GPU). ``backend="warp"``: ``num_envs`` envs (default: ``episodes``, all at
+        once) in one batched env of this process, rendered by MuJoCo Warp on the policy's device,
+        seeded as that many workers are (``workers`` is then unused). Returns an
+        :class:`~dcs_torchrl.evaluation.EvalResult`.
         """
         import torch
 
         from dcs_torchrl.evaluation import evaluate, evaluate_in_processes
-        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env_factory, pixel_options
+        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_env_factory, pixel_options
 
         cfg = self._cfg
         resolved = agent_env_settings(cfg, settings)
-        if workers > 1 and torch.device(cfg.device).type == "cpu":
+        if backend == "warp":
+            env = pixel_env(resolved, backend="warp", num_envs=num_envs or episodes, device=cfg.device,
+                            **pixel_options(cfg.pixels))
+        elif backend != "gl":
+            raise ValueError(f"unknown backend {backend!r}; choose 'gl' or 'warp'.")
+        elif workers > 1 and torch.device(cfg.device).type == "cpu":
             return evaluate_in_processes(pixel_env_factory(resolved, cfg.pixels), self.policy, episodes, workers,
                                          seed=self.eval_seed)
-        if workers > 1:
+        elif workers > 1:
             env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
         else:  # in this process: no worker to start
             env = self.make_env(seed=self.eval_seed, **settings)
@@ -238,7 +247,8 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
 
 def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
                       processes: int = 1, workers: int = 1, device: str = "cpu", final: bool = False,
-                      render_devices: Sequence[int | str] | None = None) -> Iterator[tuple[Hashable, dict, float]]:
+                      render_devices: Sequence[int | str] | None = None,
+                      backend: str = "gl") -> Iterator[tuple[Hashable, dict, float]]:
     """:meth:`Pretrained.evaluate` of ``agent`` under each of several make_env ``settings``, in
     ``processes`` processes at once; yields ``(key, EvalResult.to_dict(), seconds)`` as each one
     finishes.
@@ -262,6 +272,8 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
             ``render_devices[i % len]``: EGL device indices or CUDA devices (``"cuda:1"``), as
             :class:`~dcs_torchrl.ParallelSuiteEnv`'s, checked before anything starts; ``None``
             (default): this process's device. A process's env workers render on its device.
+        backend: ``"gl"``, or ``"warp"``: each setting's episodes all at once, in one batched env
+            (:meth:`Pretrained.evaluate`'s ``backend``).
     """
     from dcs_torchrl.egl_devices import process_render_device, render_device_indices
 
@@ -273,14 +285,14 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
     if devices is None and (processes == 1 or len(settings) < 2):
         loaded = load_pretrained(agent, device, final=final) if settings else None
         for key, overrides in settings.items():
-            yield key, *_timed_evaluation(loaded, overrides, episodes, workers)
+            yield key, *_timed_evaluation(loaded, overrides, episodes, workers, backend)
         return
     yield from _evaluate_in_processes(agent, settings, episodes, min(processes, max(1, len(settings))), workers,
-                                      device, final, devices)
+                                      device, final, devices, backend)
 
 
 def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: int, processes: int, workers: int,
-                           device: str, final: bool, devices: list[int] | None):
+                           device: str, final: bool, devices: list[int] | None, backend: str = "gl"):
     """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
     spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a setting whenever one of its
     processes is free."""
@@ -300,7 +312,7 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
             item = next(todo, None)
             if item is not None:  # a process spawned by this submit renders on the pool's device
                 with spawn_environment({EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads}):
-                    running[pool.submit(_evaluate_in_worker, item[1], episodes, workers)] = item[0], pool, render
+                    running[pool.submit(_evaluate_in_worker, item[1], episodes, workers, backend)] = item[0], pool, render
 
         for render, count in share.items():
             pool = stack.enter_context(ProcessPoolExecutor(
@@ -337,14 +349,15 @@ def _start_worker(agent: str, device: str, final: bool, threads: int, parent: in
     _WORKER_AGENT = load_pretrained(agent, device, final=final)
 
 
-def _timed_evaluation(agent: Pretrained, overrides: dict, episodes: int, workers: int) -> tuple[dict, float]:
+def _timed_evaluation(agent: Pretrained, overrides: dict, episodes: int, workers: int,
+                      backend: str = "gl") -> tuple[dict, float]:
     start = time.time()
-    result = agent.evaluate(episodes, workers=workers, **overrides).to_dict()
+    result = agent.evaluate(episodes, workers=workers, backend=backend, **overrides).to_dict()
     return result, time.time() - start
 
 
-def _evaluate_in_worker(overrides: dict, episodes: int, workers: int) -> tuple[dict, float]:
-    return _timed_evaluation(_WORKER_AGENT, overrides, episodes, workers)
+def _evaluate_in_worker(overrides: dict, episodes: int, workers: int, backend: str = "gl") -> tuple[dict, float]:
+    return _timed_evaluation(_WORKER_AGENT, overrides, episodes, workers, backend)
 
 
 def main(argv=None) -> None:

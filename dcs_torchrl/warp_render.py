@@ -19,6 +19,7 @@ What differs from GL (no reflections, no multisampling, no mipmaps) is measured 
 "Warp backend fidelity". MuJoCo Warp (``pip install "dcs-torchrl[warp]"``) is imported on first use.
 """
 # no "from __future__ import annotations": Warp reads its kernels' annotations as objects
+import time
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -265,6 +266,7 @@ class WarpRenderer:
         self._geom_rgba = np.asarray(mjm.geom_rgba).copy()
         self._uses_material = (self._geom_matid >= 0) & np.all(self._geom_rgba == (0.5, 0.5, 0.5, 1.0), axis=1)
         self._finish = _kernels(wp)
+        self.seconds = 0.0  #: time spent in :meth:`render`, for the benchmarks
         self._pixels_torch = wp.to_torch(self.pixels)
         self._labels_torch = wp.to_torch(self.labels)
 
@@ -281,6 +283,7 @@ class WarpRenderer:
         """
         wp, mjw, d, m, rc = self._wp, self._mjw, self.data, self.model, self.context
         n = self.n
+        start = time.perf_counter()
         with wp.ScopedDevice(self.device):
             self._put(d.geom_xpos, state.geom_xpos, wp.vec3)
             self._put(d.geom_xmat, state.geom_xmat.reshape(n, -1, 3, 3), wp.mat33)
@@ -305,4 +308,7 @@ class WarpRenderer:
                 inputs=[rc.rgb_data, rc.seg_data, rc.ray, d.cam_xmat, self.camera_id, self._alpha, self._geom_label,
                         self._sky, self.width, self.pixels, self.labels, int(self.want_labels)],
             )
+            if self.device != "cpu":
+                wp.synchronize_device(self.device)  # torch reads the buffers next, on its own stream
+        self.seconds += time.perf_counter() - start
         return self._pixels_torch, (self._labels_torch if self.want_labels else None)

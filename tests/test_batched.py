@@ -1,5 +1,6 @@
 """backend="warp": N envs in one process, each the episodes and distraction draws of one GL env with its seed."""
 import functools
+import json
 
 import numpy as np
 import pytest
@@ -287,3 +288,48 @@ def test_bad_settings_are_refused_with_the_fix():
     env.close()
     with pytest.raises(RuntimeError, match="closed"):
         env.reset()
+
+
+AGENT = "sac_rad_cartpole_swingup"
+
+
+def test_a_shipped_agent_evaluated_on_warp_runs_its_episodes_at_once_and_still_swings_up():
+    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.pretrained import agent_env_settings, load_pretrained
+    from dcs_torchrl.training.envs import pixel_env, pixel_options
+
+    agent = load_pretrained(AGENT)
+    result = agent.evaluate(3, backend="warp", num_envs=2)
+    env = pixel_env(agent_env_settings(agent._cfg, {}), backend="warp", num_envs=2, **pixel_options(agent._cfg.pixels))
+    assert env.batch_size == (2,) and env.observation_spec["pixels"].shape == (2, 9, 84, 84)
+    again = evaluate(env, agent.policy, 3, seed=agent.eval_seed)
+    env.close()
+    assert result.returns == again.returns and len(set(result.returns)) == 3
+    assert result.mean > 500  # the random policy scores ~30: GL's agent acts on Warp's frames (docs/results.md)
+    with pytest.raises(ValueError, match="unknown backend"):
+        agent.evaluate(1, backend="vulkan")
+
+
+def test_the_robustness_command_keeps_warp_points_apart_from_gl_points(tmp_path, monkeypatch):
+    from dcs_torchrl.robustness import Point, main, sweep_agent
+
+    calls = []
+
+    def evaluate_settings(agent, settings, episodes, backend="gl", **_):
+        for key, overrides in settings.items():
+            calls.append(backend)
+            yield key, {"mean": 1.0, "stderr": 0.0, "episodes": episodes, "returns": [1.0] * episodes}, 0.0
+
+    monkeypatch.setattr("dcs_torchrl.pretrained.evaluate_settings", evaluate_settings)
+    points = [Point("color", 0.0, False), Point("color", 0.5, False)]
+    sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False, backend="warp")
+    sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False)  # GL's points: not the Warp ones
+    sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False, backend="warp")  # all stored
+    assert calls == ["warp", "warp", "gl", "gl"]
+    records = [json.loads(p.read_text()) for p in (tmp_path / "points").iterdir()]
+    assert sorted(r["pixels"].get("backend", "gl") for r in records) == ["gl", "gl", "warp", "warp"]
+    main([AGENT, "--axes", "color", "--intensities", "0", "--episodes", "1", "--backend", "warp",
+          "--out", str(tmp_path), "--no-progress"])
+    assert calls == ["warp", "warp", "gl", "gl"]  # the stored Warp point is reused
+    with pytest.raises(ValueError, match="unknown backend"):
+        sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False, backend="vulkan")

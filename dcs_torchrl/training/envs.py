@@ -76,19 +76,23 @@ def env_settings(domain: str, task: str, options: Mapping) -> EnvSettings:
     return resolve_settings(domain, task, **options)
 
 
-def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, render_profile: str, seed: int | None = None) -> TransformedEnv:
-    """One suite env with the recipes' pixel handling (``"pixels"``: uint8 ``[3*S, H, W]``)."""
+def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, render_profile: str, seed: int | None = None,
+              backend: str = "gl", num_envs: int | None = None, device=None) -> TransformedEnv:
+    """One suite env with the recipes' pixel handling (``"pixels"``: uint8 ``[3*S, H, W]``); with
+    ``backend="warp"``, ``num_envs`` of them in one batched env (batch size ``[num_envs]``) on ``device``."""
     env = make_env(
         settings.domain, settings.task, seed=seed, height=image_size, width=image_size, render_profile=render_profile,
+        backend=backend, num_envs=num_envs, **({} if device is None else {"device": device}),
         **{k: getattr(settings, k) for k in ENV_OPTIONS},
     )
-    env.append_transform(
-        Compose(
-            PermuteTransform((-1, -3, -2), in_keys=["pixels"]),
-            CatFrames(frame_stack, dim=-3, in_keys=["pixels"]),
-        )
+    pixels = Compose(
+        PermuteTransform((-1, -3, -2), in_keys=["pixels"]),
+        CatFrames(frame_stack, dim=-3, in_keys=["pixels"]),
     )
-    return env
+    if isinstance(env, TransformedEnv):
+        env.append_transform(pixels)
+        return env
+    return TransformedEnv(env, pixels)
 
 
 def pixel_env_factory(settings: EnvSettings, pixels) -> functools.partial:

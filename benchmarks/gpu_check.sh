@@ -7,6 +7,11 @@
 #   bash benchmarks/gpu_check.sh learn    # docs/training.md's short run (16K frames) with device=cuda (~2 min)
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
 #   bash benchmarks/gpu_check.sh concurrent # benchmarks/concurrent_runs.py: 1, 2, 4, 8 recipe runs at once on the GPU (~5 min)
+#   bash benchmarks/gpu_check.sh batched  # benchmarks/batched_speed.py --device cuda: the Warp backend, N up to 4096,
+#                                         # cartpole medium dynamic; then the Warp tests on the GPU (needs
+#                                         # mujoco-warp and warp-lang: warp-lang's wheel, ~150 MB, exceeds one
+#                                         # call's 64 MiB: carry it in parts (split -b 60M) over consecutive calls
+#                                         # and join them in a scratch folder there, then pip install --no-deps)
 #   bash benchmarks/gpu_check.sh suite    # the whole test suite with the NVIDIA EGL driver (pytest -n 16; every
 #                                         # failure listed, junit XML beside it)
 #   bash benchmarks/gpu_check.sh lease    # what fits one 10-minute call, most needed first (a 15-minute loan:
@@ -76,6 +81,12 @@ case $stage in
   concurrent)
     step concurrent_runs 540 python3 benchmarks/concurrent_runs.py --runs 1 2 4 8
     ;;
+  batched)
+    step machine 60 bash -c "$MACHINE"
+    step batched_speed "$(left 420)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
+      --presets medium --sizes 16 64 256 1024 4096 --rounds 2 --seconds 3
+    step test_batched "$(left 120)" env DCS_WARP_DEVICE=cuda python3 -m pytest -q -rfE -p no:cacheprovider tests/test_batched.py
+    ;;
   suite)
     step suite 560 env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"
     ;;
@@ -95,7 +106,7 @@ case $stage in
     wait
     ;;
   *)
-    echo "unknown stage $stage: quick, speed, learn, parallel, concurrent, suite or lease" >&2
+    echo "unknown stage $stage: quick, speed, learn, parallel, concurrent, batched, suite or lease" >&2
     exit 2
     ;;
 esac

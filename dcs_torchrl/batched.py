@@ -31,7 +31,7 @@ from torchrl.envs import EnvBase, TransformedEnv
 from dcs_torchrl._scene import locate
 from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
-from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, WorldState, skybox_faces
+from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, skybox_faces
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "scene_labels"]
 
@@ -165,7 +165,7 @@ class BatchedSuiteEnv(EnvBase):
         else:  # every world shows the model's sky
             clean = self._clean_sky(model, height, camera_id)
             sky = lambda k: (1, *clean.shape)  # noqa: E731
-        self._scenes = [WorldState.empty(model, len(chunk), sky(len(chunk))) for chunk in self._chunks]
+        self._scenes = [renderer.state(sky(len(chunk))) for renderer, chunk in zip(self.renderers, self._chunks)]
         self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
         if background is not None and background.active:
             self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where]

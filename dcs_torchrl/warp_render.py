@@ -58,7 +58,7 @@ def warp_device(device) -> str:
 
 @dataclass
 class WorldState:
-    """What the renderer reads of N worlds, as whole arrays (numpy, float64 as MuJoCo keeps them).
+    """What the renderer reads of N worlds, as whole arrays (numpy; float32, as Warp keeps them).
 
     ``sky`` is uint8 ``[n or 1, faces, side, side, 3]``, faces 6 (MuJoCo's cube order +X, -X, +Y,
     -Y, +Z, -Z) or 1 (one face on all six); a leading 1 is shared by every world.
@@ -75,11 +75,11 @@ class WorldState:
 
     @classmethod
     def empty(cls, model, n: int, sky_shape: tuple[int, ...]) -> "WorldState":
-        f64 = np.float64
+        f32 = np.float32  # as Warp keeps them
         return cls(
-            geom_xpos=np.zeros((n, model.ngeom, 3), f64), geom_xmat=np.zeros((n, model.ngeom, 9), f64),
-            cam_xpos=np.zeros((n, model.ncam, 3), f64), cam_xmat=np.zeros((n, model.ncam, 9), f64),
-            light_xpos=np.zeros((n, model.nlight, 3), f64), light_xdir=np.zeros((n, model.nlight, 3), f64),
+            geom_xpos=np.zeros((n, model.ngeom, 3), f32), geom_xmat=np.zeros((n, model.ngeom, 9), f32),
+            cam_xpos=np.zeros((n, model.ncam, 3), f32), cam_xmat=np.zeros((n, model.ncam, 9), f32),
+            light_xpos=np.zeros((n, model.nlight, 3), f32), light_xdir=np.zeros((n, model.nlight, 3), f32),
             mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=np.zeros(sky_shape, np.uint8),
         )
 
@@ -260,6 +260,7 @@ class WarpRenderer:
             self._geom_label = wp.array(label, dtype=wp.uint8)
             self._alpha = wp.zeros((self.n, mjm.ngeom), dtype=float)
             self._sky = None
+        self._mjm, self._own = mjm, None
         self._mjw = mjw
         # the colour (geom's or material's, as MuJoCo picks it) whose alpha says how much sky shows through
         self._geom_matid = np.asarray(mjm.geom_matid).copy()
@@ -270,10 +271,31 @@ class WarpRenderer:
         self._pixels_torch = wp.to_torch(self.pixels)
         self._labels_torch = wp.to_torch(self.labels)
 
+    def state(self, sky_shape: tuple[int, ...]) -> WorldState:
+        """A :class:`WorldState` to fill for :meth:`render` (its ``sky`` of ``sky_shape``). On the CPU its
+        arrays are this renderer's own (float32, as Warp keeps them): a render then copies nothing in."""
+        wp, d, m = self._wp, self.data, self.model
+        n_sky, faces, side = sky_shape[:3]
+        with wp.ScopedDevice(self.device):
+            self._sky = wp.zeros((n_sky, faces * side, side, 3), dtype=wp.uint8)  # faces stacked, as in MuJoCo
+        if self.device != "cpu":
+            state = WorldState.empty(self._mjm, self.n, sky_shape)
+        else:
+            n = self.n
+            state = WorldState(
+                geom_xpos=d.geom_xpos.numpy(), geom_xmat=d.geom_xmat.numpy().reshape(n, -1, 9),
+                cam_xpos=d.cam_xpos.numpy(), cam_xmat=d.cam_xmat.numpy().reshape(n, -1, 9),
+                light_xpos=d.light_xpos.numpy(), light_xdir=d.light_xdir.numpy(), mat_rgba=m.mat_rgba.numpy(),
+                sky=self._sky.numpy().reshape(sky_shape),
+            )
+        self._own = state
+        return state
+
     def _put(self, target, values: np.ndarray, dtype) -> None:
         """Copies ``values`` (host) into the Warp array ``target`` (same shape)."""
         wp = self._wp
-        source = wp.array(np.ascontiguousarray(values), dtype=dtype, device="cpu", copy=False)
+        source = wp.array(np.ascontiguousarray(values, dtype=np.float32 if dtype is not wp.uint8 else np.uint8),
+                          dtype=dtype, device="cpu", copy=False)
         wp.copy(target, source)
 
     def render(self, state: WorldState) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -285,22 +307,23 @@ class WarpRenderer:
         n = self.n
         start = time.perf_counter()
         with wp.ScopedDevice(self.device):
-            self._put(d.geom_xpos, state.geom_xpos, wp.vec3)
-            self._put(d.geom_xmat, state.geom_xmat.reshape(n, -1, 3, 3), wp.mat33)
-            self._put(d.cam_xpos, state.cam_xpos, wp.vec3)
-            self._put(d.cam_xmat, state.cam_xmat.reshape(n, -1, 3, 3), wp.mat33)
-            if m.nlight:
-                self._put(d.light_xpos, state.light_xpos, wp.vec3)
-                self._put(d.light_xdir, state.light_xdir, wp.vec3)
-            self._put(m.mat_rgba, state.mat_rgba.astype(np.float32, copy=False), wp.vec4)
+            if state is not self._own or self.device != "cpu":  # else the arrays are Warp's already
+                self._put(d.geom_xpos, state.geom_xpos, wp.vec3)
+                self._put(d.geom_xmat, state.geom_xmat.reshape(n, -1, 3, 3), wp.mat33)
+                self._put(d.cam_xpos, state.cam_xpos, wp.vec3)
+                self._put(d.cam_xmat, state.cam_xmat.reshape(n, -1, 3, 3), wp.mat33)
+                if m.nlight:
+                    self._put(d.light_xpos, state.light_xpos, wp.vec3)
+                    self._put(d.light_xdir, state.light_xdir, wp.vec3)
+                self._put(m.mat_rgba, state.mat_rgba, wp.vec4)
+                n_sky, faces, side = state.sky.shape[:3]
+                strip = state.sky.reshape(n_sky, faces * side, side, 3)
+                if self._sky is None or tuple(self._sky.shape) != strip.shape:
+                    self._sky = wp.zeros(strip.shape, dtype=wp.uint8)
+                self._put(self._sky, strip, wp.uint8)
             alpha = np.where(self._uses_material[None], state.mat_rgba[:, self._geom_matid.clip(0), 3],
                              self._geom_rgba[None, :, 3])
-            self._put(self._alpha, alpha.astype(np.float32), float)
-            n_sky, faces, side = state.sky.shape[:3]
-            strip = state.sky.reshape(n_sky, faces * side, side, 3)  # faces stacked, as in MuJoCo's texture
-            if self._sky is None or tuple(self._sky.shape) != strip.shape:
-                self._sky = wp.zeros(strip.shape, dtype=wp.uint8)
-            self._put(self._sky, strip, wp.uint8)
+            self._put(self._alpha, alpha, float)
             mjw.refit_bvh(m, d, rc)
             mjw.render(m, d, rc)
             wp.launch(

@@ -1,6 +1,7 @@
 """backend="warp": N envs in one process, each the episodes and distraction draws of one GL env with its seed."""
 import functools
 import json
+import os
 
 import numpy as np
 import pytest
@@ -16,6 +17,9 @@ from dcs_torchrl.warp_render import MASK_LABELS
 
 pytest.importorskip("mujoco_warp")
 
+#: where the Warp envs of these tests live and render (benchmarks/gpu_check.sh batched sets cuda)
+DEVICE = os.environ.get("DCS_WARP_DEVICE", "cpu")
+
 EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
 SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True,
                 pixels_only=False)
@@ -27,7 +31,7 @@ def _gl(**extra):
 
 
 def _warp(n: int, **extra):
-    return make_env("cartpole", "swingup", num_envs=n, backend="warp", **{**SETTINGS, **extra})
+    return make_env("cartpole", "swingup", num_envs=n, backend="warp", device=DEVICE, **{**SETTINGS, **extra})
 
 
 def _seeds(seed: int, n: int, factory) -> list[int]:
@@ -59,7 +63,7 @@ def _gl_run(seed: int, actions: torch.Tensor, factory) -> list:
 
 def _assert_same(batched, alone, where: str) -> None:
     for key in batched.keys(True, True):
-        assert torch.equal(batched[key], alone[key].to(batched[key].dtype)), f"{where}: {key} differs"
+        assert torch.equal(batched[key].cpu(), alone[key].to(batched[key].dtype)), f"{where}: {key} differs"
 
 
 @pytest.mark.parametrize("extra", [{}, {"dynamic": False, "benchmark": "hard"}, {"background_blend": 0.5, "reference_blend": True}],
@@ -75,6 +79,7 @@ def test_each_env_of_the_batch_runs_the_episodes_of_one_gl_env_with_its_seed(ext
         td.set("action", action)
         out, td = env.step_and_maybe_reset(td)
         batched.append(out["next"].select(*STATE_KEYS).clone())
+        assert out["next", "pixels"].device == torch.device(DEVICE) and out["next", "pixels"].dtype == torch.uint8
     env.close()
     factory = _gl(**extra)
     for i, seed in enumerate(_seeds(7, n, factory)):

@@ -1,0 +1,134 @@
+"""``python -m dcs_torchrl.datasets generate | info | bc | export``: make, describe, learn from and
+export distracted pixel datasets (docs/datasets.md)."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from pathlib import Path
+
+from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings
+
+_TYPES = {"str": str, "float": float, "int": int}
+#: make_env settings with a flag of their own below (the others get one each, from EnvSettings).
+_NAMED = ("benchmark", "dynamic")
+
+
+def _env_flags(parser: argparse.ArgumentParser) -> None:
+    """A ``--<setting>`` flag for every make_env setting (:data:`dcs_torchrl.envs.ENV_OPTIONS`)."""
+    group = parser.add_argument_group("make_env settings (default: the benchmark's / the task's)")
+    group.add_argument("--benchmark", default="none", help="none, easy, medium, blind or hard (default none)")
+    group.add_argument("--dynamic", action=argparse.BooleanOptionalAction, default=False,
+                       help="distractions change every step (default: once per episode)")
+    fields = {f.name: f.type for f in dataclasses.fields(EnvSettings)}
+    for name in ENV_OPTIONS:
+        if name in _NAMED:
+            continue
+        kind = fields[name].split("|")[0].strip()
+        flag = "--" + name.replace("_", "-")
+        if kind == "bool":
+            group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction, default=None)
+        else:
+            group.add_argument(flag, dest=name, type=_TYPES[kind], default=None)
+
+
+def _generate(args) -> None:
+    from dcs_torchrl.datasets.generation import generate
+    from dcs_torchrl.datasets.policies import Mixing
+
+    options = {name: getattr(args, name) for name in ENV_OPTIONS if getattr(args, name) is not None}
+    record = generate(args.out, domain=args.domain, task=args.task, episodes=args.episodes, policies=args.policy,
+                      seed=args.seed, mixing=Mixing(args.epsilon, args.action_noise, args.exploration),
+                      masks=args.masks, image_size=args.image_size, render_profile=args.render_profile,
+                      max_steps=args.max_steps, progress=not args.no_progress, **options)
+    print(_summary(args.out, record))
+
+
+def _summary(path, record: dict) -> str:
+    returns = record["returns"] or {"mean": float("nan"), "stderr": float("nan")}
+    policies = ", ".join(p["name"] for p in record["policies"])
+    return (f"{path}: {record['episodes']} episodes, {record['transitions']} transitions, {record['frames']} frames of "
+            f"{record['env']['domain']} {record['env']['task']} ({record['env']['benchmark']}, "
+            f"{'dynamic' if record['env']['dynamic'] else 'static'}), policy {policies}: return "
+            f"{returns['mean']:.1f} ± {returns['stderr']:.1f}")
+
+
+def _info(args) -> None:
+    from dcs_torchrl.datasets.layout import METADATA, read_json
+
+    record = read_json(Path(args.path) / METADATA)
+    print(json.dumps({k: v for k, v in record.items() if k != "episode_table"}, indent=2) if args.json
+          else _summary(args.path, record))
+
+
+def _bc(args) -> None:
+    from dcs_torchrl.datasets.bc import main
+
+    main(args)
+
+
+def _export(args) -> None:
+    from dcs_torchrl.datasets.export import export_minari
+
+    dataset = export_minari(args.path, args.dataset_id, root=args.root)
+    print(f"wrote the Minari dataset {args.dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps} steps")
+
+
+def parser() -> argparse.ArgumentParser:
+    top = argparse.ArgumentParser(prog="python -m dcs_torchrl.datasets", description=__doc__,
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    commands = top.add_subparsers(dest="command", required=True)
+
+    gen = commands.add_parser("generate", help="make (or resume, or extend) a dataset")
+    gen.add_argument("--policy", nargs="+", default=["random"],
+                     help="random, a shipped agent's name (sac_rad_cartpole_swingup) or a run / exported agent "
+                          "directory; several: episode k is acted by the (k mod P)-th")
+    gen.add_argument("--domain", required=True)
+    gen.add_argument("--task", required=True)
+    gen.add_argument("--episodes", type=int, required=True)
+    gen.add_argument("--seed", type=int, default=0)
+    gen.add_argument("--out", required=True, help="the set's folder")
+    gen.add_argument("--epsilon", type=float, default=0.0, help="probability of a uniformly random action per step")
+    gen.add_argument("--action-noise", type=float, default=0.0,
+                     help="std of Gaussian noise added to an agent's action (units of the action range's half-width)")
+    gen.add_argument("--exploration", default="deterministic", choices=["deterministic", "random"],
+                     help="an agent's action: its mode (default) or a sample of its distribution")
+    gen.add_argument("--masks", action="store_true", help="store make_env's masks (where the backend renders them)")
+    gen.add_argument("--image-size", type=int, default=None, help="default: the agent's, else 84")
+    gen.add_argument("--render-profile", default=None, help="default: the agent's, else default")
+    gen.add_argument("--max-steps", type=int, default=None, help="cut episodes after this many steps (truncated)")
+    gen.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _env_flags(gen)
+    gen.set_defaults(run=_generate)
+
+    info = commands.add_parser("info", help="what a set holds (its metadata.json)")
+    info.add_argument("path")
+    info.add_argument("--json", action="store_true", help="the whole record but the episode table")
+    info.set_defaults(run=_info)
+
+    from dcs_torchrl.datasets.bc import add_arguments
+
+    bc = commands.add_parser("bc", help="behaviour cloning on a set, scored with the suite's evaluation")
+    add_arguments(bc)
+    bc.set_defaults(run=_bc)
+
+    export = commands.add_parser("export", help="write a set as a Minari dataset (pip install 'minari[hdf5]')")
+    export.add_argument("path")
+    export.add_argument("--format", choices=["minari"], default="minari")
+    export.add_argument("--dataset-id", required=True, help="Minari's id, e.g. dcs/cartpole-swingup-medium-expert-v0")
+    export.add_argument("--root", default=None, help="Minari's datasets folder (default: MINARI_DATASETS_PATH or ~/.minari)")
+    export.set_defaults(run=_export)
+    return top
+
+
+def main(argv=None) -> None:
+    args = parser().parse_args(argv)
+    try:
+        args.run(args)
+    except (ValueError, FileExistsError, FileNotFoundError) as error:  # a user's mistake: its message, no traceback
+        sys.exit(f"error: {error}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,153 @@
+"""A dataset's files: one memory-mapped TensorDict, written one whole episode at a time.
+
+::
+
+    <set>/metadata.json      every setting of the set, its policies, seeds, episodes, keys (metadata.py)
+    <set>/data/              the set: TensorDict.load_memmap(<set>/data), batch size []
+        transitions/           [N] transitions in TorchRL's TED layout, without the pixels
+        frames/                [F] the frames, each once: "pixels" uint8 [F, H, W, 3] (and "masks" [F, H, W])
+        episodes.json          per episode: its seed, policy, return, steps, first transition and frame
+    <set>/episodes/<k>/      while generating: episode k alone, in the same layout (renamed into
+                             place once written whole; merged into data/ when the run ends)
+
+Transition ``i`` of episode ``k`` observes frame ``transitions["frame"][i]`` and reaches frame
+``frame + 1``; ``transitions["first_frame"][i]`` is the frame of its episode's reset, so a stack
+of ``S`` frames is ``frame - S + 1 ... frame`` clamped at ``first_frame`` (the reset frame
+repeated, as TorchRL's ``CatFrames`` does) and never reaches into another episode.
+
+Every write is atomic: an episode is written under a temporary name and renamed; the merged
+``data/`` is written as ``data.tmp`` and swapped in (the previous ``data`` kept as ``data.old``
+until the swap is done, and restored from it if a run died in between).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+from tensordict import TensorDict
+
+from dcs_torchrl.training.rundir import write_json_atomic as write_json
+
+__all__ = ["DATA", "EPISODES", "METADATA", "episode_table", "load_data", "merge_episodes", "read_json", "recover",
+           "stored_episodes", "write_episode", "write_json"]
+
+METADATA = "metadata.json"
+DATA = "data"
+EPISODES = "episodes"
+_TABLE = "episodes.json"
+#: Per-transition entries counted in frames, shifted by the episode's first frame when merged.
+FRAME_KEYS = ("frame", "first_frame")
+
+
+def read_json(path: Path):
+    return json.loads(Path(path).read_text())
+
+
+def recover(out: Path) -> None:
+    """Finishes or undoes what a killed run left half done: a temporary episode or merge, a swap."""
+    data, old, tmp = out / DATA, out / f"{DATA}.old", out / f"{DATA}.tmp"
+    if old.exists():
+        if data.exists():
+            shutil.rmtree(old)
+        else:
+            old.rename(data)
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    for leftover in (out / EPISODES).glob(".*.tmp-*"):
+        shutil.rmtree(leftover)
+
+
+def episode_table(out: Path) -> list[dict]:
+    """The episodes merged into ``data/`` (``[]`` before the first merge)."""
+    table = out / DATA / _TABLE
+    return read_json(table) if table.is_file() else []
+
+
+def stored_episodes(out: Path) -> dict[int, dict]:
+    """Every complete episode, merged or not: index -> its summary."""
+    done = {e["episode"]: e for e in episode_table(out)}
+    for chunk in sorted((out / EPISODES).glob("[0-9]*")):
+        summary = read_json(chunk / _TABLE)
+        done.setdefault(summary["episode"], summary)
+    return done
+
+
+def write_episode(out: Path, episode: int, transitions: TensorDict, frames: TensorDict, summary: dict) -> None:
+    """Writes one whole episode (``transitions`` [T], ``frames`` [T + 1], frame ids counted from 0)."""
+    folder = out / EPISODES
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / f".{episode:06d}.tmp-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    TensorDict({"transitions": transitions, "frames": frames}, []).memmap(tmp)
+    write_json(tmp / _TABLE, {"episode": episode, **summary})  # inside the folder: renamed with it
+    os.rename(tmp, folder / f"{episode:06d}")
+
+
+def _sources(out: Path, episodes: int) -> list[tuple[dict, TensorDict, int, int]]:
+    """Per episode ``0 .. episodes - 1`` in order: its summary, the TensorDict holding it, and where
+    it starts there (transition, frame)."""
+    merged = {e["episode"]: e for e in episode_table(out)}
+    data = load_data(out) if merged else None
+    sources = []
+    for k in range(episodes):
+        if k in merged:
+            e = merged[k]
+            sources.append((e, data, e["first_transition"], e["first_frame"]))
+        else:
+            chunk = out / EPISODES / f"{k:06d}"
+            if not chunk.is_dir():
+                raise FileNotFoundError(f"{out}: episode {k} is missing; run generate again to write it.")
+            sources.append((read_json(chunk / _TABLE), TensorDict.load_memmap(chunk), 0, 0))
+    return sources
+
+
+def merge_episodes(out: Path, episodes: int) -> list[dict]:
+    """Merges episodes ``0 .. episodes - 1`` (those in ``data/`` and the written ones) into one
+    ``data/``, swapped in atomically; the merged episodes' folders are removed. Returns the table."""
+    if len(episode_table(out)) >= episodes:
+        return episode_table(out)  # nothing new
+    sources = _sources(out, episodes)
+    lengths = [e["steps"] for e, *_ in sources]
+    first = sources[0][1]
+    transitions, frames = sum(lengths), sum(lengths) + len(lengths)
+    template = TensorDict({"transitions": first["transitions"][0].expand(transitions),
+                           "frames": first["frames"][0].expand(frames)}, [])
+    tmp = out / f"{DATA}.tmp"
+    merged = template.memmap_like(tmp)
+    table, t0, f0 = [], 0, 0
+    for (summary, td, i, f), steps in zip(sources, lengths):
+        rows = td["transitions"][i:i + steps].to_tensordict()
+        for key in FRAME_KEYS:
+            rows[key] = rows[key] - f + f0
+        merged["transitions"][t0:t0 + steps] = rows
+        merged["frames"][f0:f0 + steps + 1] = td["frames"][f:f + steps + 1]
+        table.append({**summary, "first_transition": t0, "first_frame": f0})
+        t0, f0 = t0 + steps, f0 + steps + 1
+    write_json(tmp / _TABLE, table)
+    del merged, sources, first
+    data, old = out / DATA, out / f"{DATA}.old"
+    if data.exists():
+        data.rename(old)
+    tmp.rename(data)
+    if old.exists():
+        shutil.rmtree(old)
+    for k in range(episodes):
+        chunk = out / EPISODES / f"{k:06d}"
+        if chunk.exists():
+            shutil.rmtree(chunk)
+    if (out / EPISODES).is_dir() and not any((out / EPISODES).iterdir()):
+        (out / EPISODES).rmdir()
+    return table
+
+
+def load_data(out: Path) -> TensorDict:
+    """The merged set, memory-mapped (nothing read until indexed)."""
+    path = Path(out) / DATA
+    if not (path / _TABLE).is_file():
+        raise FileNotFoundError(f"{out} holds no finished dataset (no {DATA}/{_TABLE}): generate it with "
+                                "`python -m dcs_torchrl.datasets generate ... --out " f"{os.fspath(out)}` "
+                                "(the same command resumes a killed run).")
+    return TensorDict.load_memmap(path)

@@ -21,3 +21,17 @@ def test_without_gymnasium_its_modules_are_left_out_and_named(tmp_path):
     collected = [line for line in done.stdout.splitlines() if "::" in line]
     assert len(collected) > 1000
     assert not any(line.startswith(("tests/test_gymnasium.py::", "dcs_torchrl/gym_env.py::")) for line in collected)
+
+
+def test_without_mujoco_warp_the_warp_backend_names_its_extra(tmp_path):
+    hidden = tmp_path / "mujoco_warp"
+    hidden.mkdir()
+    (hidden / "__init__.py").write_text("raise ModuleNotFoundError(\"No module named 'mujoco_warp'\", name='mujoco_warp')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH")]))}
+    code = ("import dcs_torchrl as dcs\n"
+            "dcs.make_env('cartpole', 'swingup').reset()  # the GL backend needs nothing more\n"
+            "try:\n    dcs.make_env('cartpole', 'swingup', num_envs=2, backend='warp')\n"
+            "except ImportError as error:\n    print('refused:', error)\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert 'refused: backend="warp" needs MuJoCo Warp: pip install "dcs-torchrl[warp]"' in done.stdout

@@ -20,7 +20,6 @@ on the CPU (a batched env's workers wait while a CPU policy acts on their batch)
 """
 from __future__ import annotations
 
-import contextlib
 import math
 import multiprocessing as mp
 import os
@@ -36,6 +35,8 @@ from tensordict import TensorDictBase
 from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from dcs_torchrl._threads import torch_threads
 
 __all__ = ["EVAL_THREADS", "EvalResult", "evaluate", "evaluate_in_processes", "torch_threads"]
 
@@ -168,20 +169,6 @@ def evaluate(
                     f"evaluate: {finished} of {episodes} episodes finished after max_steps={max_steps} env steps."
                 )
     return EvalResult(tuple(returns))
-
-
-@contextlib.contextmanager
-def torch_threads(threads: int | None):
-    """torch's intra-op threads set to ``threads`` inside (``None``: left alone), this process's
-    count restored after (an evaluation's episodes; the env :class:`~dcs_torchrl.ParallelSuiteEnv`
-    steps in this process)."""
-    own = torch.get_num_threads()
-    if threads is not None:
-        torch.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(own)
 
 
 def evaluate_in_processes(

@@ -20,9 +20,8 @@ that worker ``i - 1``'s ``set_seed`` returns. This process's torch threads are l
 With two or more envs the first is built and stepped in this process (``first_here``), by the
 same loop a worker runs and with one torch thread as a worker's, while the other workers step
 theirs: the process that ends a batched step is then already awake when its own env's step is done.
-On two cores that gave about 1.5x one env where every env in a worker gives about 1.4x (the
-medians of five runs); polling before sleeping then added 0.03-0.14 (docs/performance.md,
-"Parallel envs").
+What each of these choices gains is measured in docs/performance.md ("Parallel envs") and its
+notebook, not here (``benchmarks/parallel_speed.py``).
 """
 from __future__ import annotations
 
@@ -37,9 +36,9 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
+from dcs_torchrl._threads import torch_threads
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
-from dcs_torchrl.evaluation import torch_threads
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -57,8 +56,8 @@ class ParallelSuiteEnv(EnvBase):
 
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
     a render (the suite's): the same specs, seeding and partial resets, usable with TorchRL's
-    collectors, ``rollout`` and the suite's evaluation; about 1.4x one env's speed on two idle
-    cores (1.31-1.59 over five runs), where TorchRL's ``ParallelEnv`` gives about 1x (``benchmarks/parallel_speed.py``).
+    collectors, ``rollout`` and the suite's evaluation; faster than TorchRL's ``ParallelEnv`` with the
+    suite's envs on small machines (docs/performance.md, "Parallel envs"; ``benchmarks/parallel_speed.py``).
 
     Args:
         num_workers (int): the number of envs, each in its own process.
@@ -84,8 +83,8 @@ class ParallelSuiteEnv(EnvBase):
         spin_s (float): seconds each waiting process polls its pipes (busy-waits) before it sleeps
             in ``select``: a worker after its step, this process for the workers' answers. A
             woken process starts 0.1-0.3 ms late on a virtual machine; a polling one at once, for
-            a core's time while it polls. Default :data:`SPIN_S` (3 ms: 1.39-1.45x -> 1.47-1.59x one
-            env on two cores, two runs, docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
+            a core's time while it polls. Default :data:`SPIN_S` (3 ms; what it gains:
+            docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
         first_here (bool, optional): build and step the first env in this process, while the other
             ``num_workers - 1`` step theirs in their own processes; ``False``: every env in a worker.
             The episodes are the same either way. ``None`` (default): ``True`` for two or more envs
@@ -103,6 +102,10 @@ class ParallelSuiteEnv(EnvBase):
         torch.Size([2, 3, 84, 84, 3])
         >>> env.close()
     """
+
+    #: The suite's transforms refuse to sit over this env (``dcs_torchrl._scene.PHYSICS_ELSEWHERE``):
+    #: its physics live in its workers.
+    physics_in_workers = True
 
     def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
                  render_devices: Sequence[int] | None = None, spin_s: float = SPIN_S,

@@ -50,13 +50,17 @@ from dcs_torchrl import presets
 from dcs_torchrl._private_api import control_timestep
 from dcs_torchrl.envs import make_env
 
-__all__ = ["DistractingControlEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
+__all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
 
 #: The Gymnasium namespace of the suite's ids.
 NAMESPACE = "dcs"
 #: What an observation can be: the frame alone, or a ``Dict`` of the frame, the physics state and
 #: (with ``expose_distractions=True``) the distraction state.
 OBS_TYPES = ("pixels", "dict")
+#: How a ``Dict`` observation holds the distraction state: ``"nested"`` (a ``"distractions"`` Dict
+#: of ``"camera"``, ``"color"``, ``"background"``) or ``"flat"`` (``"distractions/camera"``, ... beside
+#: ``"pixels"`` and ``"state"``: one level of Boxes, what Stable-Baselines3's ``MultiInputPolicy`` takes).
+DICT_LAYOUTS = ("nested", "flat")
 _VERSION = 0
 # make_env's keywords, each a setting of the Gymnasium env; pixels_only follows from obs_type.
 _MAKE_ENV_SETTINGS = tuple(
@@ -102,11 +106,12 @@ def register_envs() -> list[str]:
     return ids
 
 
-def _box(spec) -> spaces.Box:
-    """The Gymnasium ``Box`` of a TorchRL spec: a ``Bounded`` one's bounds, else the widest (infinite for floats)."""
-    dtype = torch.empty((), dtype=spec.dtype).numpy().dtype
+def _box(spec, dtype=None) -> spaces.Box:
+    """The Gymnasium ``Box`` of a TorchRL spec: a ``Bounded`` one's bounds, else the widest (infinite for floats);
+    of ``dtype`` if given (else the spec's)."""
+    dtype = torch.empty((), dtype=spec.dtype).numpy().dtype if dtype is None else np.dtype(dtype)
     if isinstance(spec, Bounded):
-        low, high = spec.space.low.cpu().numpy(), spec.space.high.cpu().numpy()
+        low, high = spec.space.low.cpu().numpy().astype(dtype), spec.space.high.cpu().numpy().astype(dtype)
     elif np.issubdtype(dtype, np.floating):
         low, high = -np.inf, np.inf
     else:
@@ -131,6 +136,10 @@ class DistractingControlEnv(gymnasium.Env):
             dm_control's order, float64) and, with ``expose_distractions=True``,
             ``"distractions"`` (``"camera"``, ``"color"``, ``"background"``: what
             ``make_env(..., expose_distractions=True)`` reports).
+        dict_layout (str): with ``obs_type="dict"``, how the distraction state is laid out:
+            ``"nested"`` (default), a ``"distractions"`` Dict; ``"flat"``, the keys
+            ``"distractions/camera"``, ``"distractions/color"``, ``"distractions/background"`` beside
+            ``"pixels"`` and ``"state"`` (a Dict of Boxes only, which Stable-Baselines3 takes).
         render_mode (str, optional): ``None`` or ``"rgb_array"``: :meth:`render` returns the
             last frame, the observation's pixels (rendered once per step, not twice).
             ``gymnasium.make`` turns ``"rgb_array_list"`` and ``"human"`` into wrappers.
@@ -145,6 +154,12 @@ class DistractingControlEnv(gymnasium.Env):
     does (``env.set_seed(s)``), then resets: its frames are those of ``make_env(seed=s)``
     followed by ``reset()``. ``reset()`` without a seed continues the streams, as the TorchRL
     env does across its resets.
+
+    The action space is ``Box(low, high, shape, float32)`` with the task's bounds (what
+    Stable-Baselines3 expects); an action of any float dtype is passed on to the TorchRL env in
+    its own dtype (dm_control's float64), so a float64 action is not rounded on the way.
+
+    After :meth:`close`, :meth:`step` and :meth:`reset` raise ``gymnasium.error.ClosedEnvironmentError``.
 
     Episodes end as dm_control's do: at the task's time limit (1000 control steps on the
     paper's six tasks, so ``ceil(1000 / action_repeat)`` agent steps) with ``truncated=True``
@@ -161,7 +176,7 @@ class DistractingControlEnv(gymnasium.Env):
         ...                             render_mode="rgb_array")
         >>> obs, info = env.reset(seed=0)
         >>> obs["pixels"].shape, obs["state"].shape, env.action_space
-        ((84, 84, 3), (5,), Box(-1.0, 1.0, (1,), float64))
+        ((84, 84, 3), (5,), Box(-1.0, 1.0, (1,), float32))
         >>> bool((env.render() == obs["pixels"]).all())
         True
         >>> env.close()
@@ -170,11 +185,15 @@ class DistractingControlEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"]}
 
     def __init__(self, domain: str, task: str, *, obs_type: str = "pixels", render_mode: str | None = None,
-                 registered_id: str | None = None, **settings):
+                 dict_layout: str = "nested", registered_id: str | None = None, **settings):
         if registered_id is not None:
             _check_id(registered_id, domain, task, settings.get("benchmark", "none"), settings.get("dynamic", False))
         if obs_type not in OBS_TYPES:
             raise ValueError(f"unknown obs_type {obs_type!r}; choose one of {list(OBS_TYPES)}.")
+        if dict_layout not in DICT_LAYOUTS:
+            raise ValueError(f"unknown dict_layout {dict_layout!r}; choose one of {list(DICT_LAYOUTS)}.")
+        if dict_layout != "nested" and obs_type != "dict":
+            raise ValueError(f"dict_layout={dict_layout!r} lays out a Dict observation: pass obs_type='dict' too.")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"unknown render_mode {render_mode!r}; choose one of {[None, *self.metadata['render_modes']]} "
@@ -189,7 +208,7 @@ class DistractingControlEnv(gymnasium.Env):
         if unknown:
             raise ValueError(
                 f"unknown env setting(s) {unknown}: choose among {list(_MAKE_ENV_SETTINGS)} (make_env's) "
-                "or obs_type, render_mode."
+                "or obs_type, render_mode, dict_layout."
             )
         if settings.get("expose_distractions") and obs_type != "dict":
             raise ValueError(
@@ -199,13 +218,14 @@ class DistractingControlEnv(gymnasium.Env):
         if seed is not None:
             seed = _checked_seed(seed)
         self.obs_type = obs_type
+        self.dict_layout = dict_layout
         self.render_mode = render_mode
         self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", **settings)
         env = self.torchrl_env
         base = env.base_env
         self._action_dtype = env.action_spec.dtype
         self._action_shape = tuple(env.action_spec.shape)
-        self.action_space = _box(env.action_spec)
+        self.action_space = _box(env.action_spec, np.float32)
         pixels = spaces.Box(0, 255, tuple(env.observation_spec["pixels"].shape), np.uint8)
         if obs_type == "pixels":
             self.observation_space = pixels
@@ -219,7 +239,11 @@ class DistractingControlEnv(gymnasium.Env):
             if "distractions" in env.observation_spec.keys():
                 distractions = env.observation_spec["distractions"]
                 self._distraction_keys = list(distractions.keys())
-                observation["distractions"] = spaces.Dict({k: _box(distractions[k]) for k in self._distraction_keys})
+                boxes = {k: _box(distractions[k]) for k in self._distraction_keys}
+                if dict_layout == "flat":
+                    observation |= {f"distractions/{k}": box for k, box in boxes.items()}
+                else:
+                    observation["distractions"] = spaces.Dict(boxes)
             self.observation_space = spaces.Dict(observation)
         # instance metadata: the frame rate of this task and action repeat (RecordVideo reads it)
         self.metadata = {**self.metadata, "render_fps": 1.0 / (control_timestep(base) * base.wrapper_frame_skip)}
@@ -238,6 +262,7 @@ class DistractingControlEnv(gymnasium.Env):
         Returns:
             ``(observation, info)``; ``info`` is an empty dict.
         """
+        self._check_open("reset")
         if options:
             raise ValueError(f"reset takes no options, got {sorted(options)}; pass options=None (or {{}}).")
         if seed is not None:
@@ -256,6 +281,7 @@ class DistractingControlEnv(gymnasium.Env):
             ``(observation, reward, terminated, truncated, info)``, ``reward`` the sum over the
             action repeat, as in ``make_env``'s env.
         """
+        self._check_open("step")
         if self._needs_reset:
             raise gymnasium.error.ResetNeeded(
                 "call reset() before step(): the env starts an episode at reset, and starts none after an "
@@ -289,6 +315,13 @@ class DistractingControlEnv(gymnasium.Env):
             self.torchrl_env.close()
 
     # -------------------------------------------------------------- helpers
+    def _check_open(self, call: str) -> None:
+        if self._closed:
+            raise gymnasium.error.ClosedEnvironmentError(
+                f"{call}() after close(): this env's TorchRL env and render context are closed; make a new env "
+                "(gymnasium.make(...) or DistractingControlEnv(...))."
+            )
+
     def _observation(self, td):
         frame = td["pixels"].cpu().numpy()
         self._frame = frame
@@ -298,12 +331,28 @@ class DistractingControlEnv(gymnasium.Env):
         state = state.astype(np.float64, copy=False)
         obs = {"pixels": frame, "state": state}
         if self._distraction_keys:
-            obs["distractions"] = {k: td["distractions", k].cpu().numpy() for k in self._distraction_keys}
+            distractions = {k: td["distractions", k].cpu().numpy() for k in self._distraction_keys}
+            if self.dict_layout == "flat":
+                obs |= {f"distractions/{k}": value for k, value in distractions.items()}
+            else:
+                obs["distractions"] = distractions
         return obs
 
 
 def _check_id(registered_id: str, domain: str, task: str, benchmark: str, dynamic: bool) -> None:
-    """Refuses ``gymnasium.make(id, ...)`` keywords that name another preset than the id does."""
+    """Refuses ``gymnasium.make(id, ...)`` keywords that name another preset than the id does, or none."""
+    if benchmark not in presets.BENCHMARKS:
+        raise ValueError(
+            f"gymnasium.make({registered_id!r}) was given benchmark={benchmark!r}, which is no benchmark of the "
+            f"suite; choose one of {list(presets.BENCHMARKS)}, in the id (dcs/<domain>-<task>-<benchmark>"
+            "[-dynamic]-v0) or as the keyword; single settings override it (camera_scale=..., num_videos=..., ...)."
+        )
+    if (domain, task) not in suite.ALL_TASKS:
+        raise ValueError(
+            f"gymnasium.make({registered_id!r}) was given domain={domain!r}, task={task!r}, which is no dm_control "
+            "suite task (dm_control.suite.ALL_TASKS): name the task in the id, dcs/<domain>-<task>-<benchmark>"
+            "[-dynamic]-v0, not as keywords."
+        )
     asked = env_id(domain, task, benchmark, bool(dynamic))
     if asked != registered_id:
         raise ValueError(

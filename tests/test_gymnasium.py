@@ -3,8 +3,11 @@
 Real dm_control physics and EGL rendering throughout; every comparison with ``make_env`` is
 exact (the adapter hands over the TorchRL env's own tensors).
 """
+import re
 import sys
+import textwrap
 import warnings
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -223,6 +226,99 @@ def test_frame_stack_on_the_gymnasium_side_is_the_recipes_stack():
     theirs.close()
 
 
+def test_action_space_is_float32_with_the_tasks_bounds():
+    """Stable-Baselines3 warns at every check_env on a float64 action space; the bounds stay the task's."""
+    for domain, task in [("cartpole", "swingup"), ("quadruped", "walk")]:
+        ours = DistractingControlEnv(domain, task)
+        spec = ours.torchrl_env.action_spec
+        space = ours.action_space
+        assert space.dtype == np.float32 and space.shape == tuple(spec.shape)
+        np.testing.assert_array_equal(space.low, spec.space.low.numpy().astype(np.float32))
+        np.testing.assert_array_equal(space.high, spec.space.high.numpy().astype(np.float32))
+        assert space.sample().dtype == np.float32 and space.sample() in space
+        ours.close()
+    # a float64 action reaches the physics unrounded: the same frames as make_env's for that action
+    ours = DistractingControlEnv("cartpole", "swingup", seed=1)
+    theirs = dcs.make_env("cartpole", "swingup", seed=1)
+    ours.reset()
+    theirs.reset()
+    action = np.array([0.1234567890123], dtype=np.float64)
+    assert np.array_equal(ours.step(action)[0], _torchrl_step(theirs, action)[0])
+    ours.close()
+    theirs.close()
+
+
+def test_flat_dict_layout_is_the_nested_one_on_one_level():
+    settings = dict(benchmark="medium", dynamic=True, obs_type="dict", expose_distractions=True)
+    nested = DistractingControlEnv("cartpole", "swingup", **settings)
+    flat = DistractingControlEnv("cartpole", "swingup", dict_layout="flat", **settings)
+    keys = {"pixels", "state", "distractions/camera", "distractions/color", "distractions/background"}
+    assert set(flat.observation_space) == keys
+    assert all(isinstance(space, gymnasium.spaces.Box) for space in flat.observation_space.values())  # what SB3 takes
+    for name in ("camera", "color", "background"):
+        assert flat.observation_space[f"distractions/{name}"] == nested.observation_space["distractions"][name]
+    a, _ = nested.reset(seed=5)
+    b, _ = flat.reset(seed=5)
+    for action in [None, *_actions(flat.action_space, 2, seed=3)]:
+        if action is not None:
+            a, b = nested.step(action)[0], flat.step(action)[0]
+        assert set(b) == keys and b in flat.observation_space
+        assert np.array_equal(a["pixels"], b["pixels"]) and np.array_equal(a["state"], b["state"])
+        for name in ("camera", "color", "background"):
+            assert np.array_equal(a["distractions"][name], b[f"distractions/{name}"]), name
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(flat)
+    assert all("infinity" in m or "not having a spec" in m for m in _gymnasium_warnings(caught))
+    nested.close()
+    flat.close()
+    made = gymnasium.make("dcs/cartpole-swingup-easy-v0", obs_type="dict", expose_distractions=True, dict_layout="flat")
+    assert "distractions/camera" in made.observation_space.spaces
+    made.close()
+    with pytest.raises(ValueError, match=r"unknown dict_layout 'flattened'; choose one of \['nested', 'flat'\]"):
+        DistractingControlEnv("cartpole", "swingup", obs_type="dict", dict_layout="flattened")
+    with pytest.raises(ValueError, match="lays out a Dict observation: pass obs_type='dict' too"):
+        DistractingControlEnv("cartpole", "swingup", dict_layout="flat")
+
+
+def test_step_and_reset_after_close_raise():
+    env = gymnasium.make("dcs/cartpole-swingup-none-v0")
+    env.reset(seed=0)
+    env.close()
+    with pytest.raises(gymnasium.error.ClosedEnvironmentError, match=r"step\(\) after close\(\)"):
+        env.unwrapped.step(np.zeros(1, np.float32))
+    with pytest.raises(gymnasium.error.ClosedEnvironmentError, match=r"reset\(\) after close\(\): .* make a new env"):
+        env.unwrapped.reset(seed=0)
+    env.close()  # still harmless
+
+
+def _doc_block(marker: str) -> str:
+    """The python block of docs/gymnasium.md that holds ``marker``."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "gymnasium.md").read_text(encoding="utf-8")
+    blocks = [b for b in re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL) if marker in b]
+    assert len(blocks) == 1, marker
+    return textwrap.dedent(blocks[0])  # a block inside a list item is indented
+
+
+def test_the_docs_channel_stack_is_an_image_of_the_last_frames():
+    """docs/gymnasium.md's stack for Stable-Baselines3's CnnPolicy (a 4-D FrameStackObservation is refused
+    there): k frames on the channel axis, (84, 84, 3k) uint8, oldest first."""
+    scope: dict = {}
+    exec(_doc_block("def stack_on_channels"), scope)  # noqa: S102  (the page's own code)
+    env = scope["env"]
+    assert env.observation_space == gymnasium.spaces.Box(0, 255, (84, 84, 9), np.uint8)
+    single = gymnasium.make("dcs/cartpole-swingup-medium-v0")
+    frames = [single.reset(seed=0)[0]] * 3
+    obs, _ = env.reset(seed=0)
+    assert np.array_equal(obs, np.concatenate(frames, axis=-1))
+    for action in _actions(env.action_space, 3, seed=4):
+        obs = env.step(action)[0]
+        frames = frames[1:] + [single.step(action)[0]]
+        assert obs in env.observation_space and np.array_equal(obs, np.concatenate(frames, axis=-1))
+    env.close()
+    single.close()
+
+
 # ----------------------------------------------------------------- bad input
 def test_bad_input_names_the_fix():
     with pytest.raises(ValueError, match=r"obs_type 'state'; choose one of \['pixels', 'dict'\]"):
@@ -243,6 +339,12 @@ def test_bad_input_names_the_fix():
         gymnasium.make("dcs/cartpole-swingup-medium-v0", benchmark="easy")
     with pytest.raises(ValueError, match="keywords for another preset"):
         gymnasium.make("dcs/cartpole-swingup-medium-dynamic-v0", dynamic=False)
+    with pytest.raises(ValueError, match=r"benchmark='extreme', which is no benchmark of the suite; choose one of "
+                                         r"\['none', 'easy', 'medium', 'blind', 'hard'\]") as refused:
+        gymnasium.make("dcs/cartpole-swingup-medium-v0", benchmark="extreme")
+    assert "make that id" not in str(refused.value)  # no id that does not exist
+    with pytest.raises(ValueError, match="no dm_control suite task"):
+        gymnasium.make("dcs/cartpole-swingup-medium-v0", task="swing")
     gymnasium.make("dcs/cartpole-swingup-medium-dynamic-v0", dynamic=True, camera_scale=0.3).close()  # agrees, overrides
     env = DistractingControlEnv("cartpole", "swingup")
     with pytest.raises(gymnasium.error.ResetNeeded, match=r"call reset\(\) before step\(\)"):

@@ -19,15 +19,12 @@ frustum covers (widened to cover texture filtering), each as its two finest mipm
 levels; the rest follows when a camera turns towards it. A medium-benchmark cheetah view
 sends ~6% of the texels of a six-face upload and renders the same pixels (compared
 exactly in ``tests/test_render.py``); see :meth:`_Context.upload_cube` and
-:mod:`dcs_torchrl._skybox`. A video frame, which a bouncing clip shows many times an
-episode, is converted to its RGBA levels once and kept (:class:`_ConvertedFaces`).
+:mod:`dcs_torchrl._skybox`.
 """
 from __future__ import annotations
 
-import ctypes
 import math
 import weakref
-from collections import OrderedDict
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -81,7 +78,6 @@ class _Context:
         self.width, self.height = width, height
         self.uploaded: dict[int, tuple[int, int]] = {}
         self.pending: dict[int, _CubeContent] = {}  # cube textures whose GPU copy is partly stale
-        self.converted = _ConvertedFaces()
         self._make()
 
     def _make(self) -> None:
@@ -113,11 +109,10 @@ class _Context:
         """Takes new content of a cube/skybox texture whose data the caller wrote into ``model.tex_data``.
 
         ``faces`` holds the six faces (or one face repeated on all six), each [s, s, 3]
-        uint8. ``unchanging``: the caller promises that the arrays in ``faces`` never change
-        (frames of a cached, read-only video, which a bouncing clip shows many times an
-        episode): their RGBA levels are then made once, for whole faces, and kept
-        (:class:`_ConvertedFaces`); otherwise only the rectangles sent are converted, at every
-        upload. At its first new content in this context (and at a new size) the texture is
+        uint8; only the rectangles sent are converted to RGBA, at every upload (``unchanging``,
+        the caller's promise that the arrays never change, is accepted and changes nothing: a
+        cache of converted frames it enabled measured inside the noise of a step, and went).
+        At its first new content in this context (and at a new size) the texture is
         given new storage, of that size, keeping MuJoCo's sampling parameters: RGBA8, so
         that RGBA texels are copied as they are (Mesa's llvmpipe converts them to its RGBX
         layout for MuJoCo's RGB textures), and its two finest mipmap levels only
@@ -139,7 +134,7 @@ class _Context:
             self.own_storage.add(tex_id)
             self.uploaded[tex_id] = size
         # the GPU copy holds none of it yet (new storage) or an earlier frame
-        self.pending[tex_id] = _CubeContent(faces, self.converted if unchanging else None)
+        self.pending[tex_id] = _CubeContent(faces)
 
     def upload_visible(self, camera_id: int, aspect: float) -> None:
         """Sends the texels of pending cube textures that a render of ``camera_id`` samples and lack.
@@ -182,13 +177,12 @@ _WHOLE_FACES = dict.fromkeys(range(6), _skybox.FULL)
 class _CubeContent:
     """New faces of a cube texture, and which texels of the six GPU faces show them already."""
 
-    def __init__(self, faces: list[np.ndarray], converted: _ConvertedFaces | None = None):
+    def __init__(self, faces: list[np.ndarray]):
         self.faces = faces
         self.side = int(faces[0].shape[0])
         self.margin = _skybox.face_margin(max(1, self.side >> (_SKY_LEVELS - 1)))
         self.fresh: list[tuple[int, int, int, int] | None] = [None] * 6  # per GPU face, a rectangle sent
         self.last_view = None
-        self._converted = converted
         self._whole: dict[int, list[np.ndarray]] = {}
 
     @property
@@ -222,73 +216,17 @@ class _CubeContent:
             out.append((face, rect))
         return out
 
-    def levels(self, face: int, rect: tuple[int, int, int, int]) -> list[_Texels]:
-        """The RGBA mipmap levels of ``rect`` (level-0 texels) of ``face``, finest first.
-
-        Each is a rectangle of an RGBA image: of the whole face's level when the face is
-        converted whole (kept content, or the whole face asked for), else of a conversion of
-        ``rect`` alone.
-        """
+    def levels(self, face: int, rect: tuple[int, int, int, int]) -> list[np.ndarray]:
+        """The RGBA mipmap levels of ``rect`` (level-0 texels) of ``face``, finest first, each a
+        contiguous [h, w, 4] array: a conversion of ``rect`` alone (a whole face repeated on six
+        faces is converted once)."""
         index = face if len(self.faces) == 6 else 0
         x0, y0, x1, y1 = rect
-        whole = (x0, y0, x1, y1) == (0, 0, self.side, self.side)
-        if self._converted is not None:
-            images = self._converted.get(self.faces[index])
-        elif whole:
-            if index not in self._whole:  # one face repeated on six is converted once
+        if (x0, y0, x1, y1) == (0, 0, self.side, self.side):
+            if index not in self._whole:
                 self._whole[index] = _rgba_levels(self.faces[index])
-            images = self._whole[index]
-        else:
-            return [_Texels(image, 0, 0) for image in _rgba_levels(self.faces[index][y0:y1, x0:x1])]
-        if whole:
-            return [_Texels(image, 0, 0) for image in images]
-        out = []
-        for level, image in enumerate(images):
-            x, y = x0 >> level, y0 >> level
-            width, height = max(1, (x1 - x0) >> level), max(1, (y1 - y0) >> level)
-            out.append(_Texels(image, x, y, width, height))
-        return out
-
-
-class _Texels:
-    """A ``width`` x ``height`` rectangle at ``(x, y)`` of an RGBA image [h, w, 4] (all of it by default)."""
-
-    __slots__ = ("image", "x", "y", "width", "height")
-
-    def __init__(self, image: np.ndarray, x: int, y: int, width: int | None = None, height: int | None = None):
-        self.image, self.x, self.y = image, x, y
-        self.width = image.shape[1] - x if width is None else width
-        self.height = image.shape[0] - y if height is None else height
-
-
-class _ConvertedFaces:
-    """The RGBA levels of unchanging whole faces (:meth:`_Context.upload_cube`), by the face's memory.
-
-    A face is known by the address, shape and strides of its texels; each entry holds the
-    array it was made from, so that memory stays taken and no later array can have that
-    key. Least recently used first out, at most :attr:`capacity` faces (a 256-texel face
-    takes 320 KiB: 20 MiB, more than the frames an episode shows of one clip).
-    """
-
-    capacity = 64
-
-    def __init__(self):
-        self._entries: OrderedDict = OrderedDict()
-        self.hits = self.misses = 0
-
-    def get(self, image: np.ndarray) -> list[np.ndarray]:
-        key = (image.__array_interface__["data"][0], image.shape, image.strides)
-        entry = self._entries.get(key)
-        if entry is not None:
-            self._entries.move_to_end(key)
-            self.hits += 1
-            return entry[1]
-        self.misses += 1
-        levels = _rgba_levels(image)
-        self._entries[key] = (image, levels)
-        while len(self._entries) > self.capacity:
-            self._entries.popitem(last=False)
-        return levels
+            return self._whole[index]
+        return _rgba_levels(self.faces[index][y0:y1, x0:x1])
 
 
 def _rgba_levels(image: np.ndarray) -> list[np.ndarray]:
@@ -320,34 +258,17 @@ def _limit_levels(texture: int, max_level: int) -> None:
     GL.glTexParameteri(GL.GL_TEXTURE_CUBE_MAP, GL.GL_TEXTURE_MAX_LEVEL, max_level)
 
 
-def _sub_upload_cubes(jobs: list[tuple[int, list[tuple[int, int, int, list[_Texels]]]]]) -> None:
-    """Per ``(texture, [(face, x0, y0, levels)])``, replaces texels of cube faces from (x0, y0) on.
-
-    Each level's texels are read in place from their RGBA image (``GL_UNPACK_ROW_LENGTH``
-    set to its row, put back to 0 after, as MuJoCo expects it).
-    """
+def _sub_upload_cubes(jobs: list[tuple[int, list[tuple[int, int, int, list[np.ndarray]]]]]) -> None:
+    """Per ``(texture, [(face, x0, y0, levels)])``, replaces texels of cube faces from (x0, y0) on
+    with each level's RGBA array."""
     from OpenGL import GL
-    from OpenGL.raw.GL.VERSION import GL_1_1  # unchecked entry points: ~40% less call overhead
 
-    row_length = 0
-    try:
-        for texture, uploads in jobs:
-            GL_1_1.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
-            for face, x0, y0, levels in uploads:
-                for level, texels in enumerate(levels):
-                    image = texels.image
-                    row = image.shape[1]
-                    if row != row_length:
-                        GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, row)
-                        row_length = row
-                    address = image.ctypes.data + 4 * (texels.y * row + texels.x)
-                    GL_1_1.glTexSubImage2D(
-                        GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, x0 >> level, y0 >> level,
-                        texels.width, texels.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, ctypes.c_void_p(address),
-                    )
-    finally:  # MuJoCo's own uploads read rows packed
-        if row_length:
-            GL_1_1.glPixelStorei(GL.GL_UNPACK_ROW_LENGTH, 0)
+    for texture, uploads in jobs:
+        GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, texture)
+        for face, x0, y0, levels in uploads:
+            for level, image in enumerate(levels):
+                GL.glTexSubImage2D(GL.GL_TEXTURE_CUBE_MAP_POSITIVE_X + face, level, x0 >> level, y0 >> level,
+                                   image.shape[1], image.shape[0], GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, image)
 
 
 _CONTEXTS: "weakref.WeakKeyDictionary[object, _Context]" = weakref.WeakKeyDictionary()

@@ -189,7 +189,7 @@ def sky_pixels(monkeypatch, whole, transforms, episodes=3, steps=15, keys=("pixe
     upload = render._sub_upload_cubes
 
     def counted(jobs):
-        sent.append(sum(levels[0].width * levels[0].height for _, uploads in jobs for *_, levels in uploads))
+        sent.append(sum(levels[0].shape[0] * levels[0].shape[1] for _, uploads in jobs for *_, levels in uploads))
         upload(jobs)
 
     monkeypatch.setattr(render, "_sub_upload_cubes", counted)
@@ -231,34 +231,6 @@ def test_two_cameras_on_one_sky_each_get_the_faces_they_see(monkeypatch):
     seen, seen_texels = sky_pixels(monkeypatch, False, transforms, episodes=2, steps=6, keys=keys)
     assert torch.equal(seen, whole)
     assert seen_texels < 0.5 * whole_texels
-
-
-def test_unchanging_faces_are_converted_once_and_give_the_texels_of_a_rectangle_converted_alone():
-    frames = noise_videos(count=1, frames=3, size=64)[0]
-    frames.setflags(write=False)
-    cache = render._ConvertedFaces()
-    rect = (10, 6, 40, 52)  # even corners, as _CubeContent.take makes them
-    kept = render._CubeContent([frames[0]], cache).levels(0, rect)
-    alone = render._CubeContent([frames[0]]).levels(0, rect)
-    for texels, reference in zip(kept, alone):
-        y, x = texels.y, texels.x
-        np.testing.assert_array_equal(texels.image[y : y + texels.height, x : x + texels.width], reference.image)
-    render._CubeContent([frames[0]], cache).levels(0, (0, 0, 64, 64))
-    assert (cache.hits, cache.misses) == (1, 1)
-    render._CubeContent([frames[0].copy()], cache).levels(0, rect)  # same texels, other memory: converted anew
-    assert cache.misses == 2
-    cache.capacity = 2
-    for frame in frames[1:]:
-        render._CubeContent([frame], cache).levels(0, rect)
-    assert len(cache._entries) == 2 and cache.misses == 4
-
-
-def test_a_medium_env_converts_each_frame_once_an_episode():
-    env = make_env("cheetah", "run", benchmark="medium", dynamic=True, seed=0)
-    env.rollout(250, break_when_any_done=False)  # one episode (1000 control steps)
-    converted = render._CONTEXTS[physics_of(env)].converted
-    assert converted.hits > 3 * converted.misses  # a clip bounces over its frames: most come back
-    env.close()
 
 
 def test_the_sky_shows_only_the_current_frame_at_every_mip_level():

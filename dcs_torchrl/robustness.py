@@ -191,8 +191,9 @@ def _listing_sha256(folder: Path) -> str:
 
 def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
     """Every resolved make_env setting of a point, and the videos it shows: the embedded stand-ins'
-    version (``embedded_videos``), or a folder's absolute path and ``background_listing``
-    (:func:`_listing_sha256`, computed once per folder in ``listings``)."""
+    version (``embedded_videos``), or a folder's ``background_listing`` (:func:`_listing_sha256`,
+    computed once per folder in ``listings``). ``background_dir`` stays as the user gave it (a record
+    names no directory of this machine that the user did not write); the listing identifies the videos."""
     from dcs_torchrl.pretrained import agent_env_settings
     from dcs_torchrl.results import shows_videos, with_videos_version
 
@@ -201,25 +202,37 @@ def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
         folder = os.fspath(Path(env["background_dir"]).expanduser().resolve())
         if folder not in listings:
             listings[folder] = _listing_sha256(Path(folder))
-        env |= {"background_dir": folder, "background_listing": listings[folder]}
+        env |= {"background_listing": listings[folder]}
     return env
 
 
-def _point_identities(agent: dict, results: dict, settings: dict[str, dict], episodes: int) -> dict[str, dict]:
-    """Per point key, what defines its stored point (:data:`IDENTITY`)."""
+def _point_identities(agent: dict, results: dict, settings: dict[str, dict], episodes: int,
+                      backend: str = "gl") -> dict[str, dict]:
+    """Per point key, what defines its stored point (:data:`IDENTITY`); the pixels of another
+    backend than GL's, the reference, name it (a GL point's identity is as it always was)."""
     from omegaconf import OmegaConf
 
     from dcs_torchrl.training.envs import pixel_options
 
     pixels = pixel_options(OmegaConf.create(results["config"]).pixels)
+    if backend != "gl":
+        pixels = {**pixels, "backend": backend}
     listings: dict[str, str] = {}
     return {key: {"agent": agent, "env": _point_env(results["config"], overrides, listings), "pixels": pixels,
                   "episodes": episodes} for key, overrides in settings.items()}
 
 
 def _point_id(record: dict) -> str:
-    """The SHA-256 of what defines a point (:data:`IDENTITY`), read from a record or an identity."""
-    return hashlib.sha256(json.dumps({k: record.get(k) for k in IDENTITY}, sort_keys=True).encode()).hexdigest()
+    """The SHA-256 of what defines a point (:data:`IDENTITY`), read from a record or an identity.
+
+    A folder of videos counts by its ``background_listing`` (its files' names and sizes), not by the
+    path it was given as: the same folder by another path (relative, ``~``, absolute) is the same point,
+    in records written before paths were kept as given too."""
+    identity = {k: record.get(k) for k in IDENTITY}
+    env = identity.get("env")
+    if isinstance(env, dict) and env.get("background_listing"):
+        identity["env"] = {k: v for k, v in env.items() if k != "background_dir"}
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
 def _check_agent(theirs: dict, ours: dict, out: str | os.PathLike) -> None:
@@ -251,8 +264,8 @@ def _background(background_dir: str | os.PathLike | None, num_videos: int | None
     if num_videos is not None and num_videos < 1:
         raise ValueError(f"--num-videos must be >= 1 (the first b training videos), got {num_videos}.")
     if background_dir is not None:
-        background_dir = os.fspath(Path(background_dir).expanduser())
-        if not Path(background_dir).is_dir():
+        background_dir = os.fspath(background_dir)  # as given: the video sources expand ~ themselves
+        if not Path(background_dir).expanduser().is_dir():
             raise FileNotFoundError(f"--background-dir {background_dir} is not a directory: point it at DAVIS 2017's "
                                     "JPEGImages/480p (or a folder of videos), or leave it out for the embedded videos.")
     available = len(as_video_source(background_dir, "train"))
@@ -267,21 +280,24 @@ def _background(background_dir: str | os.PathLike | None, num_videos: int | None
 
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
                 workers: int = 1, background_dir: str | os.PathLike | None = None, num_videos: int | None = None,
-                progress: bool = True, render_devices: Sequence[int | str] | None = None) -> list[dict]:
+                progress: bool = True, render_devices: Sequence[int | str] | None = None,
+                backend: str = "gl") -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
     Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
     point is reused only where everything that defines it (:data:`IDENTITY`) matches: the
     episodes, the agent (method, task, seed, frames and its checkpoint's SHA-256), every resolved
     make_env setting and the pixels the policy sees, and the videos shown (the embedded
-    stand-ins' version, or a folder's path and a digest of its files' names and sizes). Other
+    stand-ins' version, or a digest of a folder's files' names and sizes; its path is kept as given). Other
     points are evaluated (stored ones that do not match stay, for a run that matches them).
     ``out`` holding another agent's points, or this agent's from another checkpoint, is refused
     before anything is evaluated. ``workers`` processes each evaluate whole points, worker ``i``
     rendering on ``render_devices[i % len]`` (EGL indices or ``"cuda:N"``; ``None``: this
     process's device; :func:`dcs_torchrl.pretrained.evaluate_settings`). The background
     axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
-    folder that holds fewer).
+    folder that holds fewer). ``backend="warp"``: each point's episodes all at once, in one batched
+    env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate`); its points are
+    stored apart from GL's.
 
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
@@ -298,13 +314,16 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     keys = [p.key(background_dir, num_videos) for p in points]
     settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
     identity = _agent_identity(directory, results)
-    identities = _point_identities(identity, results, settings, episodes)
+    if backend not in ("gl", "warp"):
+        raise ValueError(f"unknown backend {backend!r}; choose 'gl' or 'warp'.")
+    identities = _point_identities(identity, results, settings, episodes, backend)
     stored = Path(out) / "points"
     stored.mkdir(parents=True, exist_ok=True)
     done = _stored_points(stored, identity, out)
     todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
     bar = _progress(list(todo), progress)
-    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=devices):
+    for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=devices,
+                                            backend=backend):
         point_id = _point_id(identities[key])
         done[point_id] = result
         write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})
@@ -397,6 +416,9 @@ def main(argv=None) -> dict[str, Path]:
     parser.add_argument("--render-devices", nargs="+", default=None, type=_render_device, metavar="DEVICE",
                         help="the GPUs the workers render on, worker i on the (i mod n)-th: EGL device indices or "
                              "cuda:N (default: this process's, MUJOCO_EGL_DEVICE_ID or the first)")
+    parser.add_argument("--backend", default="gl", choices=["gl", "warp"],
+                        help="gl: one env per point (the reference); warp: a point's episodes at once, in one batched "
+                             "env rendered by MuJoCo Warp (pip install \"dcs-torchrl[warp]\")")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
     parser.add_argument("--no-progress", action="store_true")
@@ -407,7 +429,7 @@ def main(argv=None) -> dict[str, Path]:
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
                        background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress,
-                       render_devices=args.render_devices)
+                       render_devices=args.render_devices, backend=args.backend)
     videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
     videos += f", b = {args.num_videos} videos" if args.num_videos is not None else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "

@@ -193,6 +193,22 @@ def test_points_on_another_video_folder_are_evaluated_again(tmp_path, evaluated,
     assert [o.get("background_blend") for o in evaluated] == [0.5, None, 0.5]
 
 
+def test_records_keep_the_video_folder_as_the_user_gave_it(tmp_path, evaluated, monkeypatch):
+    """No absolute path of this machine in a stored point: the folder as given (relative, or with ~)."""
+    from videos.files import write_frames
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    write_frames(tmp_path / "videos" / "clip0", 2)
+    monkeypatch.chdir(tmp_path)
+    points = [Point("background", 0.5, False)]
+    for given in ("videos", "~/videos"):
+        sweep(tmp_path / "out", points, background_dir=given)
+    assert len(evaluated) == 1  # the same folder: the second path reused the point
+    (record,) = [json.loads(p.read_text()) for p in (tmp_path / "out" / "points").iterdir()]
+    assert record["env"]["background_dir"] == record["overrides"]["background_dir"] == "videos"
+    assert str(tmp_path) not in json.dumps(record)
+
+
 def test_num_videos_sets_the_background_axis_b_and_keys_its_points(tmp_path, evaluated):
     points = [Point("background", 0.5, False), Point("camera", 0.5, False)]
     sweep(tmp_path, points)

@@ -10,9 +10,10 @@ pixel as MuJoCo's OpenGL renderer does for the suite's scenes:
 * where a ray meets nothing, the world's sky (a cube map: six faces, or one face on all six as the
   background distraction writes it) sampled along the pixel's ray, bilinear;
 * where it meets a surface whose colour is not opaque (the floor at the preset's ``ground_alpha``),
-  ``alpha * surface + (1 - alpha) * sky``, the sky seen through it, as GL's alpha blending over the
-  skybox draws it (a transparent surface in front of another body is not handled: none of the
-  suite's scenes has one);
+  the surface over the sky seen through it, blended as GL blends it: MuJoCo's GL draws a transparent
+  geom twice (front to back, then back to front) over the skybox, so ``a = 1 - (1 - alpha)^2`` of the
+  surface shows (a transparent surface in front of another body is not handled: none of the suite's
+  scenes has one);
 * with ``masks``, a label per pixel (:data:`MASK_LABELS`) from the same trace's segmentation.
 
 What differs from GL (no reflections, no multisampling, no mipmaps) is measured in docs/results.md,
@@ -199,6 +200,9 @@ def _kernels(wp):
         a = float(0.0)  # a ray that meets nothing shows the sky
         if geom >= 0:
             a = alpha[world, geom]
+            # MuJoCo's GL draws each transparent geom twice, front to back then back to front
+            # (render_gl3.c, "transparent regular rendering"): over the sky, 1 - (1 - a)^2 of it shows
+            a = 1.0 - (1.0 - a) * (1.0 - a)
         if a < 1.0:
             d = cam_xmat[world, camera] * rays[pixel]
             color = a * color + (1.0 - a) * sample_sky(sky, world, d)

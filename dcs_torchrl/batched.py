@@ -51,6 +51,9 @@ def scene_labels(model) -> tuple[np.ndarray, np.ndarray]:
 
 #: Default number of parts a batch is rendered in (:class:`BatchedSuiteEnv`'s ``render_chunks``).
 RENDER_CHUNKS = 4
+#: Threads that render parts at once (each part has its own Warp context): while this thread steps
+#: physics one renders beside it; once the physics is done, the others too.
+RENDER_THREADS = 2
 
 
 def _chunks(n: int, parts: int | None) -> list[range]:
@@ -175,7 +178,7 @@ class BatchedSuiteEnv(EnvBase):
                 scene.sky[0] = clean
         self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
         self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
-        self._pool = ThreadPoolExecutor(1, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
+        self._pool = ThreadPoolExecutor(RENDER_THREADS, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
         self._pending: list = []
         self._obs = {key: np.zeros(spec.shape, np.float64) for key, spec in self._state_obs_spec.items(True, True)}
         self._reward = np.zeros((n, 1), np.float64)

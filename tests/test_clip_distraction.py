@@ -13,6 +13,7 @@ from dcs_torchrl.pretrained import load_pretrained  # noqa: E402
 from videos.files import write_frames  # noqa: E402
 
 
+@pytest.mark.slow  # the benchmark script's own run (an evaluation per clip and one alone)
 def test_each_clip_alone_and_a_rerun_skips_what_it_holds(tmp_path, capsys):
     videos = tmp_path / "videos"
     write_frames(videos / "a_red", 3, rgb=(220, 30, 20))

@@ -12,6 +12,7 @@ import concurrent_runs  # noqa: E402
 TINY = ["--device", "cpu", "--batch-size", "4", "--hidden", "16", "--seed-steps", "10", "--loop-steps", "75"]
 
 
+@pytest.mark.slow  # the benchmark script's own run (three recipe runs in subprocesses, ~40 s)
 def test_two_runs_at_once_are_each_timed_and_summed(capsys):
     rows = concurrent_runs.main([*TINY, "--runs", "1", "2", "--threads", "1"])
     assert [r["runs"] for r in rows] == [1, 2] and [len(r["fps"]) for r in rows] == [1, 2]

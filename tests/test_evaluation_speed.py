@@ -9,6 +9,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import evaluation_speed  # noqa: E402
 
 
+@pytest.mark.slow  # the benchmark script's own run (spawned evaluations); the paths' equal episodes: test_evaluation.py, test_pretrained.py
 def test_the_benchmark_times_each_path_and_the_two_env_paths_run_the_same_episodes(capsys):
     results = evaluation_speed.main(["--episodes", "2", "--rounds", "1"])
     out = capsys.readouterr().out

@@ -13,6 +13,7 @@ import parallel_speed  # noqa: E402
 PATHS = ["one env", "ParallelSuiteEnv", "2 processes", "ParallelSuiteEnv, LP_NUM_THREADS=0"]
 
 
+@pytest.mark.slow  # the benchmark script's own run (~45 s: spawned workers and processes); the parallel env itself: test_parallel.py
 def test_the_benchmark_prints_the_ceiling_and_a_row_per_path(capsys):
     before = dict(os.environ)
     results = parallel_speed.main(["--steps", "3", "--rounds", "1", "--benchmarks", "none", "--ceiling-rounds", "1",

@@ -3,6 +3,7 @@ import re
 import sys
 from pathlib import Path
 
+import pytest
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -14,6 +15,7 @@ from dcs_torchrl.pretrained import load_pretrained  # noqa: E402
 AGENT = "sac_rad_cartpole_swingup"
 
 
+@pytest.mark.slow  # the benchmark script's own run (episodes of the shipped agent); the profiles' pixels: test_render.py
 def test_rows_are_the_agents_own_evaluation_and_the_profiles_render_apart(capsys):
     main(["--episodes", "1", "--agents", AGENT, "--profiles", "default", "fast"])
     out = capsys.readouterr().out

@@ -42,18 +42,24 @@ def test_shipped_agent_is_small_and_networks_only(name):
     assert set(state) == {"policy"}  # no replay buffer, no optimiser state, no critics
 
 
+# Clean episodes each agent is judged on: three for the all-or-nothing tasks, one for the others.
+EPISODES = {"sac_rad_ball_in_cup_catch": 3, "sac_rad_reacher_easy": 3}
+
+
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_agent_far_above_a_random_policy(name):
-    """Three clean episodes (the first of its final evaluation's seeds): above 4x a random policy.
+    """Its first clean episodes (of its final evaluation's seeds): above 4x a random policy.
 
     The ball_in_cup agent misses the catch in 5 of its 20 final-evaluation episodes (return 0,
-    docs/results.md), two of them among these three, and the reacher agent reaches the target in
-    half of its episodes, so the bar is the random policy's."""
+    docs/results.md), two of them among its first three, and the reacher agent reaches the target in
+    half of its episodes: those two are judged on three episodes. The other four score within a few
+    standard deviations of their mean in every episode (cartpole 753 ± 4, cheetah 242 ± 17, finger
+    854 ± 2, walker 504 ± 27 over 20), far above 4x random: one episode each (CI time)."""
     agent = load_pretrained(name)
     assert agent.results["method"] == "SAC+RAD" and agent.results["steps"] == 100_000
     env = agent.make_env(seed=0)
     try:
-        result = evaluate(env, agent.policy, 3, seed=agent.eval_seed)
+        result = evaluate(env, agent.policy, EPISODES.get(name, 1), seed=agent.eval_seed)
     finally:
         env.close()
     random = RANDOM_POLICY[agent.results["domain"], agent.results["task"]]

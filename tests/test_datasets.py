@@ -272,3 +272,14 @@ def test_the_export_to_minari_holds_the_episodes(small_set, tmp_path):
     assert (episode.observations["pixels"] == frames[:SET["max_steps"] + 1].numpy()).all()
     assert episode.infos["distractions"]["camera"].shape == (SET["max_steps"] + 1, 4)
     assert isinstance(minari.__version__, str)
+
+
+def test_info_says_what_a_set_holds(small_set, capsys):
+    from dcs_torchrl.datasets.__main__ import main
+
+    main(["info", str(small_set)])
+    line = capsys.readouterr().out
+    assert f"{EPISODES} episodes, {EPISODES * SET['max_steps']} transitions" in line and "(medium, dynamic)" in line
+    main(["info", str(small_set), "--json"])
+    record = json.loads(capsys.readouterr().out)
+    assert record["env"]["benchmark"] == "medium" and "episode_table" not in record

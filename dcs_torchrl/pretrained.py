@@ -178,8 +178,8 @@ class Pretrained:
         env's), env i running episodes i, i + workers, ...:
 
         - policy on the CPU: each env in its own process with a copy of the policy
-          (:func:`~dcs_torchrl.evaluation.evaluate_in_processes`); a batched policy there costs
-          nearly twice one while the workers wait (docs/performance.md, "Evaluation on the CPU");
+          (:func:`~dcs_torchrl.evaluation.evaluate_in_processes`); a batched policy there keeps
+          the workers waiting (measured: docs/performance.md, "Evaluation on the CPU");
         - policy on a GPU: one :class:`~dcs_torchrl.ParallelSuiteEnv`, the policy acting on the
           batch in this process.
 

@@ -9,7 +9,7 @@ profile    settings                         versus ``physics.render`` of the sam
 default    4x MSAA, shadow map scaled to    mean abs. pixel difference ≤ 0.1 (measured in
            the image, buffer = image size,  the tests); what the paper's numbers were
            one persistent camera            rendered with
-fast       no MSAA, small shadow map, ...   mean difference ≤ 1 grey level, ~2x faster
+fast       no MSAA, small shadow map, ...   mean difference ≤ 1 grey level, cheaper
 ========== ================================ ===============================================
 
 Textures edited by the distractions (the skybox) are uploaded here, right before the
@@ -117,8 +117,8 @@ class _Context:
         that RGBA texels are copied as they are (Mesa's llvmpipe converts them to its RGBX
         layout for MuJoCo's RGB textures), and its two finest mipmap levels only
         (``GL_TEXTURE_MAX_LEVEL``), which the suite writes itself: at the sizes a sky is seen
-        at, rendering is the same as with the full chain (measured), and the upload ~3x
-        cheaper than regenerating mipmaps. The content itself is only recorded here:
+        at, rendering is the same as with the full chain (measured), and the upload cheaper
+        than regenerating mipmaps (docs/performance.md, "The sky texture"). The content itself is only recorded here:
         :meth:`upload_visible`, right before each render, sends the part of the sky that
         render samples (``glTexSubImage2D``), and the rest when a later render needs it (a
         camera that turns). A medium-benchmark cheetah view costs ~6% of the texels of six faces.
@@ -302,7 +302,7 @@ class RenderPixels(Transform):
 
     Keyword Args:
         profile (str): ``"default"`` (matches dm_control's own render, mean absolute
-            difference ≤ 0.1) or ``"fast"`` (≤ 1 grey level, about twice as fast).
+            difference ≤ 0.1) or ``"fast"`` (≤ 1 grey level, cheaper: docs/performance.md, "Env steps").
         out_keys (list of keys): where to write the image. Defaults to ``["pixels"]``.
 
     The base env's state observations stay: append TorchRL's

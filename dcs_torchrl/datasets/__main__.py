@@ -128,6 +128,10 @@ def main(argv=None) -> None:
         args.run(args)
     except (ValueError, FileExistsError, FileNotFoundError) as error:  # a user's mistake: its message, no traceback
         sys.exit(f"error: {error}")
+    except ModuleNotFoundError as error:  # an extra not installed: what to install
+        if "pip install" not in str(error):
+            raise
+        sys.exit(f"error: {error}")
 
 
 if __name__ == "__main__":

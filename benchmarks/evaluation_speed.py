@@ -29,15 +29,15 @@ from machine import cpu_model  # noqa: E402
 
 from dcs_torchrl.evaluation import evaluate  # noqa: E402
 from dcs_torchrl.pretrained import agent_env_settings, load_pretrained  # noqa: E402
-from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_options  # noqa: E402
+from dcs_torchrl.training.envs import batched_pixel_env, close_env, pixel_options  # noqa: E402
 
 AGENT = "sac_rad_cartpole_swingup"
 
 
 def batched_policy(agent, episodes: int, workers: int, settings: dict):
     """The n envs in one ParallelSuiteEnv, the policy acting on their batch here."""
-    env = make_pixel_env(agent_env_settings(agent._cfg, settings), num_workers=workers, seed=agent.eval_seed,
-                         **pixel_options(agent._cfg.pixels))
+    env = batched_pixel_env(agent_env_settings(agent._cfg, settings), num_workers=workers, seed=agent.eval_seed,
+                            **pixel_options(agent._cfg.pixels))
     try:
         return evaluate(env, agent.policy, episodes, seed=agent.eval_seed)
     finally:

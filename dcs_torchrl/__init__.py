@@ -21,7 +21,7 @@ from dcs_torchrl.distractions import (  # noqa: E402
     ColorDistraction,
     DistractionTransform,
 )
-from dcs_torchrl.envs import EnvSettings, make_env, resolve_settings  # noqa: E402
+from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, resolve_settings  # noqa: E402
 from dcs_torchrl.parallel import ParallelSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
 from dcs_torchrl.render import RenderPixels  # noqa: E402
@@ -29,6 +29,7 @@ from dcs_torchrl.render import RenderPixels  # noqa: E402
 __all__ = [
     "BENCHMARKS",
     "BackgroundDistraction",
+    "EnvOptions",
     "EnvSettings",
     "make_env",
     "ParallelSuiteEnv",

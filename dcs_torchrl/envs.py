@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import os
+import textwrap
 from dataclasses import dataclass
-from types import MappingProxyType
 
+import torch
 from dm_control import suite
 from torchrl.envs import Compose, DMControlEnv, EnvBase, ExcludeTransform, TransformedEnv
 
@@ -15,33 +17,99 @@ from dcs_torchrl.distractions.background import as_video_source
 from dcs_torchrl.render import PROFILES, RenderPixels
 
 
-@dataclass(frozen=True)
-class EnvSettings:
-    """Every setting of a suite env, resolved from a preset plus overrides.
+def _option(default, meaning: str, *, scene: bool = True):
+    """A field of :class:`EnvOptions`: its default and its one-line meaning (make_env's docstring);
+    ``scene=False`` for an option of how the env is built and rendered, not of what it shows."""
+    return dataclasses.field(default=default, metadata={"meaning": meaning, "scene": scene})
 
-    ``num_videos`` is the number of videos actually used (a preset's ``None`` resolved
-    to the size of the split). :meth:`as_dict` is what recipes record in ``results.json``.
+
+@dataclass(frozen=True)
+class EnvOptions:
+    """The options of a suite env, each declared once: name, type, default and meaning.
+
+    :func:`make_env`'s keywords (its signature and docstring are made from these fields), the
+    Gymnasium env's keywords (:class:`dcs_torchrl.gym_env.DistractingControlEnv`) and, for the
+    scene options (:data:`SCENE_OPTIONS`), the recipes' ``env`` / ``eval_env`` config
+    (``dcs_torchrl/training/conf/base.yaml``, checked against these fields by a test) and the
+    resolved record :class:`EnvSettings`. ``None`` means the preset's, or the task's.
+
+    Examples:
+        >>> EnvOptions().benchmark, EnvOptions().camera_scale, "camera_scale" in SCENE_OPTIONS
+        ('none', None, True)
     """
 
-    domain: str
-    task: str
-    benchmark: str
-    dynamic: bool
-    camera_scale: float
-    color_scale: float
-    num_videos: int
-    background_blend: float
-    blind: bool
-    background_split: str
-    background_dir: str | None
-    ground_alpha: float | None
-    action_repeat: int
-    camera_id: int
-    reference_blend: bool
-    texture_size: int
+    # The scene: resolved into EnvSettings (what results.json records), a recipe's env config.
+    benchmark: str = _option("none", '``"none"``, ``"easy"``, ``"medium"``, ``"blind"`` or ``"hard"`` '
+                                     "(:data:`dcs_torchrl.BENCHMARKS`).")
+    dynamic: bool = _option(False, "distractions change every control step (else once per episode).")
+    camera_scale: float | None = _option(None, "β_cam override (``None`` = the preset's).")
+    color_scale: float | None = _option(None, "β_rgb override (``None`` = the preset's).")
+    num_videos: int | None = _option(None, "b override (``None`` = the preset's; every video of the split "
+                                           "where the preset has none).")
+    background_blend: float | None = _option(None, "β_bg override (``None`` = the preset's).")
+    blind: bool | None = _option(None, "turn the camera backwards (the ``blind`` preset sets it).")
+    background_split: str = _option("train", '``"train"`` (the first b videos) or ``"val"`` (held out).')
+    background_dir: str | os.PathLike | None = _option(
+        None, "a DAVIS 2017 ``JPEGImages/480p`` folder or any supported video folder; ``None`` uses the "
+              "embedded default videos.")
+    ground_alpha: float | None = _option(None, "floor opacity; defaults to the task's when videos are shown.")
+    action_repeat: int | None = _option(None, "frame skip; defaults to the paper's (its Table 1).")
+    camera_id: int | None = _option(None, "the camera to distract and render; defaults to the suite's.")
+    reference_blend: bool = _option(
+        False, "blend each episode's video onto the sky as this env last showed it, as the authors' 2021 code "
+               "does (see :class:`BackgroundDistraction`), instead of onto the original sky as the paper "
+               "describes. Only matters for β_bg < 1.")
+    texture_size: int = _option(256, "side of the background texture.")
+    # How the env is built and rendered: make_env's (and the Gymnasium env's) only.
+    seed: int | None = _option(None, "seeds the physics and every distraction (``env.set_seed``); the pixel "
+                                     "sequence is then reproducible bit for bit.", scene=False)
+    expose_distractions: bool = _option(False, 'add ``("distractions", "camera" | "color" | "background")`` '
+                                               "to every observation, with specs.", scene=False)
+    height: int = _option(84, "image height.", scene=False)
+    width: int = _option(84, "image width.", scene=False)
+    render_profile: str = _option("default", '``"default"`` or ``"fast"`` (see :class:`RenderPixels`).',
+                                  scene=False)
+    pixels_only: bool = _option(True, "drop the state observations (TorchRL's ``ExcludeTransform`` after the "
+                                      'render); ``False`` keeps them next to ``"pixels"``.', scene=False)
+    device: torch.device | str | None = _option(
+        None, 'TorchRL device of the env; with ``backend="warp"`` also where Warp renders (``"cpu"``, the '
+              'default, or ``"cuda"``).', scene=False)
+    num_envs: int | None = _option(None, 'with ``backend="warp"``, the number of envs of the batch (default 1); '
+                                         "the env's batch size is then ``[num_envs]``.", scene=False)
+    backend: str = _option(
+        "gl", '``"gl"`` (default): one env, rendered by MuJoCo\'s OpenGL renderer, the reference the paper\'s '
+              'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process, each with its own '
+              "physics, task and distractions as on GL, rendered in one batch by MuJoCo Warp "
+              '(:class:`dcs_torchrl.batched.BatchedSuiteEnv`; ``pip install "dcs-torchrl[warp]"``; '
+              "docs/batched.md).", scene=False)
+    masks: bool = _option(False, 'add ``"masks"``, a uint8 label per pixel (0 background, 1 floor, 2 agent: '
+                                 ":data:`dcs_torchrl.warp_render.MASK_LABELS`) from the render's segmentation; "
+                                 '``backend="warp"`` only.', scene=False)
 
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+
+#: The scene options of :class:`EnvOptions` (what :func:`resolve_settings` resolves, a recipe's
+#: ``env`` / ``eval_env`` config holds and :class:`EnvSettings` records, after the task), in order.
+SCENE_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions) if f.metadata["scene"])
+
+
+def _as_dict(self) -> dict:
+    """The settings as a dict: what results.json's ``train_env`` / ``eval_env`` and a dataset's metadata record."""
+    return dataclasses.asdict(self)
+
+
+EnvSettings = dataclasses.make_dataclass(
+    "EnvSettings",
+    [("domain", str), ("task", str),
+     *[(f.name, f.type) for f in dataclasses.fields(EnvOptions) if f.name in SCENE_OPTIONS]],
+    frozen=True,
+    namespace={"__module__": __name__, "as_dict": _as_dict, "__doc__": """\
+Every setting of a suite env, resolved from a preset plus overrides (:func:`resolve_settings`):
+the task, then each of :data:`SCENE_OPTIONS` (fields of :class:`EnvOptions`) with its value.
+
+``num_videos`` is the number of videos actually used (a preset's ``None`` resolved to the size
+of the split). :meth:`as_dict` is what recipes record in ``results.json``.
+"""},
+)
 
 
 #: The renderers of :func:`make_env` (``backend``).
@@ -58,27 +126,20 @@ def _check_task(domain: str, task: str) -> None:
         raise ValueError(f"unknown task {task!r} of domain {domain!r}; choose one of {by_domain[domain]}.")
 
 
-#: The settings a user chooses (make_env's keywords, a recipe's ``env`` / ``eval_env`` groups):
-#: every field of :class:`EnvSettings` but the task. ``None`` means the preset's / the task's.
-ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvSettings) if f.name not in ("domain", "task"))
-#: The options whose default is not ``None``.
-OPTION_DEFAULTS = MappingProxyType(
-    {"benchmark": "none", "dynamic": False, "background_split": "train", "reference_blend": False, "texture_size": 256})
-
-
 def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
     """The :class:`EnvSettings` :func:`make_env` builds from a preset and ``options`` (any of
-    :data:`ENV_OPTIONS`; ``None`` or missing = the preset's, or the task's).
+    :data:`SCENE_OPTIONS`; ``None`` or missing = the preset's, or the task's).
 
     Examples:
         >>> resolve_settings("cartpole", "swingup", benchmark="easy", dynamic=True).camera_scale
         0.1
     """
-    unknown = sorted(set(options) - set(ENV_OPTIONS))
+    unknown = sorted(set(options) - set(SCENE_OPTIONS))
     if unknown:
-        raise ValueError(f"unknown env setting(s) {unknown}: choose among {list(ENV_OPTIONS)}.")
+        raise ValueError(f"unknown env setting(s) {unknown}: choose among {list(SCENE_OPTIONS)}.")
     given = {k: v for k, v in options.items() if v is not None}
-    o = {**OPTION_DEFAULTS, **given}
+    defaults = {f.name: f.default for f in dataclasses.fields(EnvOptions) if f.name in SCENE_OPTIONS}
+    o = {**{k: v for k, v in defaults.items() if v is not None}, **given}
     _check_task(domain, task)
     if o["benchmark"] not in presets.BENCHMARKS:
         raise ValueError(f"unknown benchmark {o['benchmark']!r}; choose one of {list(presets.BENCHMARKS)}.")
@@ -116,35 +177,7 @@ def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
     )
 
 
-def make_env(
-    domain: str,
-    task: str,
-    *,
-    benchmark: str = "none",
-    dynamic: bool = False,
-    seed: int | None = None,
-    background_dir: str | os.PathLike | None = None,
-    background_split: str = "train",
-    expose_distractions: bool = False,
-    camera_scale: float | None = None,
-    color_scale: float | None = None,
-    num_videos: int | None = None,
-    background_blend: float | None = None,
-    blind: bool | None = None,
-    ground_alpha: float | None = None,
-    action_repeat: int | None = None,
-    camera_id: int | None = None,
-    height: int = 84,
-    width: int = 84,
-    render_profile: str = "default",
-    pixels_only: bool = True,
-    texture_size: int = 256,
-    reference_blend: bool = False,
-    device=None,
-    num_envs: int | None = None,
-    backend: str = "gl",
-    masks: bool = False,
-) -> EnvBase:
+def make_env(domain: str, task: str, **options) -> EnvBase:
     """A Distracting Control Suite env: dm_control physics, distractions, then one render.
 
     Builds ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False,
@@ -157,42 +190,7 @@ def make_env(
         domain, task (str): a dm_control suite task, e.g. ``"cheetah", "run"``.
 
     Keyword Args:
-        benchmark (str): ``"none"``, ``"easy"``, ``"medium"``, ``"blind"`` or ``"hard"``.
-        dynamic (bool): distractions change every control step (else once per episode).
-        seed (int, optional): seeds the physics and every distraction (``env.set_seed``);
-            the pixel sequence is then reproducible bit for bit.
-        background_dir (path, optional): a DAVIS 2017 ``JPEGImages/480p`` folder or any
-            supported video folder; ``None`` uses the embedded default videos.
-        background_split (str): ``"train"`` (the first b videos) or ``"val"`` (held out).
-        expose_distractions (bool): add ``("distractions", "camera" | "color" |
-            "background")`` to every observation, with specs.
-        camera_scale, color_scale (float): β_cam, β_rgb overrides.
-        num_videos (int): b override (``None`` = the preset's).
-        background_blend (float): β_bg override.
-        blind (bool): turn the camera backwards (the ``blind`` preset sets it).
-        ground_alpha (float): floor opacity; defaults to the task's when videos are shown.
-        action_repeat (int): frame skip; defaults to the paper's (its Table 1).
-        camera_id (int): the camera to distract and render; defaults to the suite's.
-        height, width (int): image size. Defaults to 84x84.
-        render_profile (str): ``"default"`` or ``"fast"`` (see :class:`RenderPixels`).
-        pixels_only (bool): drop the state observations (TorchRL's ``ExcludeTransform``
-            after the render); ``False`` keeps them next to ``"pixels"``.
-        texture_size (int): side of the background texture.
-        reference_blend (bool): blend each episode's video onto the sky as this env last
-            showed it, as the authors' 2021 code does (see :class:`BackgroundDistraction`),
-            instead of onto the original sky as the paper describes. Only matters for β_bg < 1.
-        device: TorchRL device of the env; with ``backend="warp"`` also where Warp renders
-            (``"cpu"``, the default, or ``"cuda"``).
-        num_envs (int, optional): with ``backend="warp"``, the number of envs of the batch
-            (default 1); the env's batch size is then ``[num_envs]``.
-        backend (str): ``"gl"`` (default): one env, rendered by MuJoCo's OpenGL renderer, the
-            reference the paper's numbers are compared with. ``"warp"``: ``num_envs`` envs in this
-            process, each with its own physics, task and distractions as on GL, rendered in one
-            batch by MuJoCo Warp (:class:`dcs_torchrl.batched.BatchedSuiteEnv`; ``pip install
-            "dcs-torchrl[warp]"``; docs/batched.md).
-        masks (bool): add ``"masks"``, a uint8 label per pixel (0 background, 1 floor, 2 agent:
-            :data:`dcs_torchrl.warp_render.MASK_LABELS`) from the render's segmentation;
-            ``backend="warp"`` only.
+        <the fields of EnvOptions>
 
     Examples:
         >>> import dcs_torchrl as dcs
@@ -200,48 +198,67 @@ def make_env(
         >>> env.rollout(10)["next", "pixels"].shape
         torch.Size([10, 84, 84, 3])
     """
-    if render_profile not in PROFILES:
-        raise ValueError(f"unknown render_profile {render_profile!r}; choose one of {sorted(PROFILES)}.")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32):
-        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {seed!r}.")
-    s = resolve_settings(
-        domain, task, benchmark=benchmark, dynamic=dynamic, camera_scale=camera_scale, color_scale=color_scale,
-        num_videos=num_videos, background_blend=background_blend, blind=blind, background_split=background_split,
-        background_dir=background_dir, ground_alpha=ground_alpha, action_repeat=action_repeat, camera_id=camera_id,
-        reference_blend=reference_blend, texture_size=texture_size,
-    )
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; choose one of {list(BACKENDS)}.")
-    if num_envs is not None and (isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1):
-        raise ValueError(f"num_envs must be a positive integer (or None), got {num_envs!r}.")
-    if backend == "gl":
-        if num_envs is not None:
+    unknown = sorted(set(options) - {f.name for f in dataclasses.fields(EnvOptions)})
+    if unknown:
+        raise TypeError(f"make_env() got unknown keyword argument(s) {unknown}: choose among "
+                        f"{[f.name for f in dataclasses.fields(EnvOptions)]} (dcs_torchrl.EnvOptions).")
+    o = EnvOptions(**options)
+    if o.render_profile not in PROFILES:
+        raise ValueError(f"unknown render_profile {o.render_profile!r}; choose one of {sorted(PROFILES)}.")
+    if o.seed is not None and (isinstance(o.seed, bool) or not isinstance(o.seed, int) or not 0 <= o.seed < 2**32):
+        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {o.seed!r}.")
+    s = resolve_settings(domain, task, **{k: v for k, v in options.items() if k in SCENE_OPTIONS})
+    if o.backend not in BACKENDS:
+        raise ValueError(f"unknown backend {o.backend!r}; choose one of {list(BACKENDS)}.")
+    if o.num_envs is not None and (isinstance(o.num_envs, bool) or not isinstance(o.num_envs, int) or o.num_envs < 1):
+        raise ValueError(f"num_envs must be a positive integer (or None), got {o.num_envs!r}.")
+    if o.backend == "gl":
+        if o.num_envs is not None:
             raise ValueError(
                 "num_envs is for backend='warp' (N envs in this process, rendered in one batch): pass "
                 "backend='warp', or run GL envs in processes with "
                 "dcs_torchrl.ParallelSuiteEnv(n, functools.partial(dcs_torchrl.make_env, domain, task, ...)).")
-        if masks:
+        if o.masks:
             raise ValueError("masks=True needs backend='warp' (its render gives the segmentation at no second "
                              "render); the GL backend has no masks.")
-    expose = bool(expose_distractions)
-    if backend == "warp":
+    expose = bool(o.expose_distractions)
+    if o.backend == "warp":
         from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv
         from dcs_torchrl.warp_render import import_warp
 
         import_warp()  # the extra's error first
-        if render_profile not in WARP_PROFILES:
-            raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
+        if o.render_profile not in WARP_PROFILES:
+            raise ValueError(f"unknown render_profile {o.render_profile!r} for backend='warp'; choose one of "
                              f"{sorted(WARP_PROFILES)}.")
-        worlds = [_distracted_env(s, expose) for _ in range(1 if num_envs is None else num_envs)]
-        env = BatchedSuiteEnv(worlds, height=height, width=width, camera_id=s.camera_id,
-                              device="cpu" if device is None else device, pixels_only=pixels_only, masks=masks,
-                              render_profile=render_profile)
+        worlds = [_distracted_env(s, expose) for _ in range(1 if o.num_envs is None else o.num_envs)]
+        env = BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=s.camera_id,
+                              device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
+                              masks=o.masks, render_profile=o.render_profile)
     else:
-        env = _distracted_env(s, expose, device, RenderPixels(height, width, s.camera_id, profile=render_profile),
-                              pixels_only)
-    if seed is not None:
-        env.set_seed(seed)
+        render = RenderPixels(o.height, o.width, s.camera_id, profile=o.render_profile)
+        env = _distracted_env(s, expose, o.device, render, o.pixels_only)
+    if o.seed is not None:
+        env.set_seed(o.seed)
     return env
+
+
+def _keyword_docs() -> str:
+    """make_env's "Keyword Args" entries: each field of :class:`EnvOptions` with its type and meaning."""
+    lines = []
+    for f in dataclasses.fields(EnvOptions):
+        lines += textwrap.wrap(f"{f.name} ({f.type}): {f.metadata['meaning']}", 100, initial_indent=" " * 8,
+                               subsequent_indent=" " * 12, break_on_hyphens=False)
+    return "\n".join(lines).lstrip()
+
+
+if make_env.__doc__:  # None under python -OO
+    make_env.__doc__ = make_env.__doc__.replace("<the fields of EnvOptions>", _keyword_docs())
+make_env.__signature__ = inspect.Signature(
+    [inspect.Parameter("domain", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation="str"),
+     inspect.Parameter("task", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation="str"),
+     *[inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
+       for f in dataclasses.fields(EnvOptions)]],
+    return_annotation="EnvBase")
 
 
 def _distracted_env(s: EnvSettings, expose: bool, device=None, render: RenderPixels | None = None,

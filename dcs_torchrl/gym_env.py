@@ -25,7 +25,7 @@ Examples:
 """
 from __future__ import annotations
 
-import inspect
+import dataclasses
 import numbers
 
 import numpy as np
@@ -48,7 +48,7 @@ except ModuleNotFoundError as error:  # only Gymnasium itself missing gets the i
 
 from dcs_torchrl import presets
 from dcs_torchrl._private_api import control_timestep
-from dcs_torchrl.envs import make_env
+from dcs_torchrl.envs import EnvOptions, make_env
 
 __all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
 
@@ -62,11 +62,8 @@ OBS_TYPES = ("pixels", "dict")
 #: ``"pixels"`` and ``"state"``: one level of Boxes, what Stable-Baselines3's ``MultiInputPolicy`` takes).
 DICT_LAYOUTS = ("nested", "flat")
 _VERSION = 0
-# make_env's keywords, each a setting of the Gymnasium env; pixels_only follows from obs_type.
-_MAKE_ENV_SETTINGS = tuple(
-    name for name, p in inspect.signature(make_env).parameters.items()
-    if p.kind is inspect.Parameter.KEYWORD_ONLY and name != "pixels_only"
-)
+# make_env's keywords (the fields of EnvOptions), each a setting of the Gymnasium env; pixels_only follows from obs_type.
+_MAKE_ENV_SETTINGS = tuple(f.name for f in dataclasses.fields(EnvOptions) if f.name != "pixels_only")
 
 
 def env_id(domain: str, task: str, benchmark: str = "none", dynamic: bool = False) -> str:
@@ -145,7 +142,8 @@ class DistractingControlEnv(gymnasium.Env):
             ``gymnasium.make`` turns ``"rgb_array_list"`` and ``"human"`` into wrappers.
         registered_id (str, optional): set by the registry: the id ``gymnasium.make`` was given,
             whose task, benchmark and static/dynamic keywords must not contradict it.
-        **settings: any keyword of :func:`~dcs_torchrl.make_env` but ``pixels_only`` (which
+        **settings: any keyword of :func:`~dcs_torchrl.make_env` (a field of
+            :class:`~dcs_torchrl.EnvOptions`) but ``pixels_only`` (which
             ``obs_type`` decides): ``benchmark``, ``dynamic``, ``seed``, ``camera_scale``,
             ``height``, ``render_profile``, ... ``seed`` seeds as ``make_env(seed=...)``
             does; ``reset(seed=s)`` does the same later.

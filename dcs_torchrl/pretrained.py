@@ -91,10 +91,9 @@ def agent_env_settings(config: Mapping, settings: Mapping):
     ``config`` (its run's config) acts in under ``settings``: these over its training env's."""
     from omegaconf import OmegaConf
 
-    from dcs_torchrl.training.envs import env_options, env_settings
+    from dcs_torchrl.training.envs import config_settings
 
-    env = OmegaConf.create(config).env
-    return env_settings(env.domain, env.task, {**env_options(env), **settings})
+    return config_settings(OmegaConf.create(config).env, settings)
 
 
 def _build_agent(results: dict, device: str = "cpu"):
@@ -102,10 +101,10 @@ def _build_agent(results: dict, device: str = "cpu"):
     from omegaconf import OmegaConf
 
     from dcs_torchrl.methods import agent_class
-    from dcs_torchrl.training.envs import env_options, env_settings, pixel_env, pixel_options
+    from dcs_torchrl.training.envs import config_settings, pixel_env, pixel_options
 
     cfg = OmegaConf.merge(OmegaConf.create(results["config"]), {"device": device})
-    settings = env_settings(cfg.env.domain, cfg.env.task, env_options(cfg.env))
+    settings = config_settings(cfg.env)
     env = pixel_env(settings, **pixel_options(cfg.pixels))  # the specs the networks are built from
     try:
         spec = env.action_spec
@@ -192,7 +191,7 @@ class Pretrained:
         import torch
 
         from dcs_torchrl.evaluation import evaluate, evaluate_in_processes
-        from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env, pixel_env_factory, pixel_options
+        from dcs_torchrl.training.envs import batched_pixel_env, close_env, pixel_env, pixel_env_factory, pixel_options
 
         cfg = self._cfg
         resolved = agent_env_settings(cfg, settings)
@@ -205,7 +204,7 @@ class Pretrained:
             return evaluate_in_processes(pixel_env_factory(resolved, cfg.pixels), self.policy, episodes, workers,
                                          seed=self.eval_seed)
         elif workers > 1:
-            env = make_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
+            env = batched_pixel_env(resolved, num_workers=workers, seed=self.eval_seed, **pixel_options(cfg.pixels))
         else:  # in this process: no worker to start
             env = self.make_env(seed=self.eval_seed, **settings)
         try:

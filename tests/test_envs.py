@@ -167,21 +167,27 @@ def test_bad_input_names_the_fix():
         make_env("cheetah", "run", seed=-1)
 
 
-def test_env_settings_have_one_source():
-    """EnvSettings lists a suite env's settings once: make_env's keywords, the recipes' env groups
-    and the validation follow it."""
+def test_env_options_have_one_source():
+    """EnvOptions declares a suite env's options once: make_env's signature and docstring, the
+    resolved EnvSettings and the validation follow it (the recipes' config: tests/training/test_env_config.py)."""
     import dataclasses
     import inspect
 
-    from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings
-    from dcs_torchrl.training.conf import EnvConfig, EvalEnvConfig
+    from dcs_torchrl.envs import SCENE_OPTIONS, EnvOptions, EnvSettings
 
-    assert set(ENV_OPTIONS) == {f.name for f in dataclasses.fields(EnvSettings)} - {"domain", "task"}
-    assert set(ENV_OPTIONS) <= set(inspect.signature(make_env).parameters)
-    assert [f.name for f in dataclasses.fields(EnvConfig)] == ["domain", "task", *ENV_OPTIONS]
-    assert [f.name for f in dataclasses.fields(EvalEnvConfig)] == list(ENV_OPTIONS)
+    options = dataclasses.fields(EnvOptions)
+    assert [f.name for f in dataclasses.fields(EnvSettings)] == ["domain", "task", *SCENE_OPTIONS]
+    assert set(SCENE_OPTIONS) < {f.name for f in options}
+    parameters = inspect.signature(make_env).parameters
+    assert list(parameters) == ["domain", "task", *(f.name for f in options)]
+    assert all(parameters[f.name].default == f.default for f in options)
+    assert all(f"        {f.name} (" in make_env.__doc__ for f in options)
     with pytest.raises(ValueError, match=r"unknown env setting\(s\) \['cam_scale'\]: choose among"):
         resolve_settings("cartpole", "swingup", cam_scale=0.1)
+    with pytest.raises(ValueError, match=r"unknown env setting\(s\) \['height'\]"):  # not a scene option
+        resolve_settings("cartpole", "swingup", height=64)
+    with pytest.raises(TypeError, match=r"make_env\(\) got unknown keyword argument\(s\) \['cam_scale'\]: choose among"):
+        make_env("cartpole", "swingup", cam_scale=0.1)
 
 
 def _reference_camera(domain: str) -> int:

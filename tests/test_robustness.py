@@ -222,13 +222,13 @@ def test_num_videos_sets_the_background_axis_b_and_keys_its_points(tmp_path, eva
 
 
 def test_a_changed_env_default_evaluates_every_point_again(tmp_path, evaluated, monkeypatch):
-    from types import MappingProxyType
+    import dataclasses
 
     import dcs_torchrl.envs
 
     sweep(tmp_path, COLOR)
-    defaults = {**dcs_torchrl.envs.OPTION_DEFAULTS, "texture_size": 128}  # no override sets it
-    monkeypatch.setattr(dcs_torchrl.envs, "OPTION_DEFAULTS", MappingProxyType(defaults))
+    texture_size = next(f for f in dataclasses.fields(dcs_torchrl.envs.EnvOptions) if f.name == "texture_size")
+    monkeypatch.setattr(texture_size, "default", 128)  # no override sets it
     sweep(tmp_path, COLOR)
     assert len(evaluated) == 4
 

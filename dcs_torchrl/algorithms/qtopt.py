@@ -15,10 +15,9 @@ from __future__ import annotations
 from omegaconf import DictConfig
 from tensordict.nn import TensorDictSequential
 
-from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.objectives import CEMActor, QTOptLoss
 from dcs_torchrl.training.agent import LossAgent, pixel_networks
-from dcs_torchrl.training.envs import env_options
+from dcs_torchrl.training.envs import config_settings
 from dcs_torchrl.training.execution import ExecutionOptions
 
 __all__ = ["QTOptAgent"]
@@ -29,7 +28,7 @@ class QTOptAgent(LossAgent):
 
     def __init__(self, cfg: DictConfig, observation_shape: tuple, action_spec):
         algo = cfg.algo
-        action_repeat = resolve_settings(cfg.env.domain, cfg.env.task, **env_options(cfg.env)).action_repeat
+        action_repeat = config_settings(cfg.env).action_repeat
         encoder, critics, augmentation, copies = pixel_networks(cfg, observation_shape, action_spec)
         cem = {"cem_iterations": algo.cem_iterations, "cem_samples": algo.cem_samples, "cem_elites": algo.cem_elites}
         loss = QTOptLoss(

@@ -8,21 +8,21 @@ import json
 import sys
 from pathlib import Path
 
-from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings
+from dcs_torchrl.envs import SCENE_OPTIONS, EnvOptions
 
 _TYPES = {"str": str, "float": float, "int": int}
-#: make_env settings with a flag of their own below (the others get one each, from EnvSettings).
+#: make_env settings with a flag of their own below (the others get one each, from EnvOptions).
 _NAMED = ("benchmark", "dynamic")
 
 
 def _env_flags(parser: argparse.ArgumentParser) -> None:
-    """A ``--<setting>`` flag for every make_env setting (:data:`dcs_torchrl.envs.ENV_OPTIONS`)."""
+    """A ``--<setting>`` flag for every make_env setting (:data:`dcs_torchrl.envs.SCENE_OPTIONS`)."""
     group = parser.add_argument_group("make_env settings (default: the benchmark's / the task's)")
     group.add_argument("--benchmark", default="none", help="none, easy, medium, blind or hard (default none)")
     group.add_argument("--dynamic", action=argparse.BooleanOptionalAction, default=False,
                        help="distractions change every step (default: once per episode)")
-    fields = {f.name: f.type for f in dataclasses.fields(EnvSettings)}
-    for name in ENV_OPTIONS:
+    fields = {f.name: f.type for f in dataclasses.fields(EnvOptions)}
+    for name in SCENE_OPTIONS:
         if name in _NAMED:
             continue
         kind = fields[name].split("|")[0].strip()
@@ -37,7 +37,7 @@ def _generate(args) -> None:
     from dcs_torchrl.datasets.generation import generate
     from dcs_torchrl.datasets.policies import Mixing
 
-    options = {name: getattr(args, name) for name in ENV_OPTIONS if getattr(args, name) is not None}
+    options = {name: getattr(args, name) for name in SCENE_OPTIONS if getattr(args, name) is not None}
     record = generate(args.out, domain=args.domain, task=args.task, episodes=args.episodes, policies=args.policy,
                       seed=args.seed, mixing=Mixing(args.epsilon, args.action_noise, args.exploration),
                       masks=args.masks, image_size=args.image_size, render_profile=args.render_profile,

@@ -51,9 +51,9 @@ def evaluation_settings(text: str) -> dict:
 def score(policy, domain: str, task: str, settings: dict, pixels: dict, episodes: int, seed: int) -> dict:
     """The recipes' evaluation of ``policy`` in the pixel env of ``settings``: ``EvalResult.to_dict()``."""
     from dcs_torchrl.evaluation import evaluate
-    from dcs_torchrl.training.envs import close_env, env_settings, pixel_env
+    from dcs_torchrl.training.envs import close_env, config_settings, pixel_env
 
-    env = pixel_env(env_settings(domain, task, settings), seed=seed, **pixels)
+    env = pixel_env(config_settings({"domain": domain, "task": task}, settings), seed=seed, **pixels)
     try:
         return evaluate(env, policy, episodes, seed=seed).to_dict()
     finally:

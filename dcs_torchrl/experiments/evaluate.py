@@ -117,7 +117,7 @@ def evaluate_checkpoint(
 
     from dcs_torchrl.pretrained import agent_directory, checkpoint_sha256, evaluate_settings
     from dcs_torchrl.training import RunDirectory
-    from dcs_torchrl.training.envs import env_options, env_settings, render_device
+    from dcs_torchrl.training.envs import config_settings, render_device
 
     train_dir = agent_directory(train_dir)  # a run, an exported agent, or a shipped agent's name
     trained = _trained_results(train_dir)
@@ -128,13 +128,12 @@ def evaluate_checkpoint(
     device = str(settings.get("device", cfg.device))
     # not the trained run's execution.render_device, which names the machine it trained on; a bad index is refused here
     render = render_device(OmegaConf.create({"device": device}), settings.get("execution.render_device", "auto"))
-    train_options = env_options(cfg.env)
 
     digest = checkpoint_sha256(train_dir)
     results: list[dict | None] = []
     todo = []
     for out_dir, evaluation in targets:
-        eval_settings = env_settings(cfg.env.domain, cfg.env.task, {**train_options, **evaluation.eval_env})
+        eval_settings = config_settings(cfg.env, evaluation.eval_env)
         run = RunDirectory(out_dir, {"trained": os.path.relpath(train_dir, out_dir), "eval_env": eval_settings.as_dict()})
         run.claim()
         done = run.finished(trained["steps"], episodes)

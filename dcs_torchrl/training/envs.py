@@ -24,56 +24,70 @@ from __future__ import annotations
 
 import functools
 import logging
+import typing
 from collections.abc import Mapping
 from pathlib import Path
 
 import torch
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import CatFrames, Compose, EnvBase, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
 from dcs_torchrl.egl_devices import egl_device_of_cuda, process_render_device, render_device_index
-from dcs_torchrl.envs import ENV_OPTIONS, EnvSettings, make_env, resolve_settings
+from dcs_torchrl.envs import SCENE_OPTIONS, EnvOptions, EnvSettings, make_env, resolve_settings
 from dcs_torchrl.parallel import ParallelSuiteEnv
 
-__all__ = ["close_env", "env_options", "env_settings", "make_pixel_env", "pixel_env", "pixel_options", "recipe_settings",
-           "render_device"]
+__all__ = ["batched_pixel_env", "close_env", "config_settings", "pixel_env", "pixel_env_factory", "pixel_options",
+           "render_device", "train_eval_settings"]
 
 log = logging.getLogger(__name__)
 
-
-def env_options(section) -> dict:
-    """The make_env settings of a recipe's ``env`` / ``eval_env`` config section (all its keys
-    but the task; :func:`env_settings` refuses unknown ones)."""
-    return {k: v for k, v in OmegaConf.to_container(section, resolve=True).items() if k not in ("domain", "task")}
+# The type(s) each scene option's value may have in a config (None is always allowed: the preset's).
+_KINDS = {name: tuple(k for k in typing.get_args(kind) or (kind,) if k is not type(None))
+          for name, kind in typing.get_type_hints(EnvOptions).items() if name in SCENE_OPTIONS}
 
 
-def recipe_settings(cfg) -> tuple[EnvSettings, EnvSettings]:
-    """The training env and the evaluation env of a recipe config (``eval_env``: the non-null
-    overrides of ``env``), resolved and so validated."""
-    train_options = env_options(cfg.env)
-    eval_options = {**train_options, **{k: v for k, v in env_options(cfg.eval_env).items() if v is not None}}
-    return (env_settings(cfg.env.domain, cfg.env.task, train_options),
-            env_settings(cfg.env.domain, cfg.env.task, eval_options))
+def _section_options(section) -> dict:
+    """The options a config's env section sets (all its keys but the task), each of its option's type."""
+    values = OmegaConf.to_container(section, resolve=True) if isinstance(section, DictConfig) else dict(section)
+    options = {k: v for k, v in values.items() if k not in ("domain", "task")}
+    for name, value in options.items():
+        kinds = _KINDS.get(name)  # an unknown name: resolve_settings names the choices
+        if value is None or kinds is None:
+            continue
+        number = float in kinds and isinstance(value, int)  # an int where a float is wanted
+        if isinstance(value, bool) is not (bool in kinds) or not (isinstance(value, kinds) or number):
+            raise ValueError(f"env setting {name}={value!r} ({type(value).__name__}): give a value of type "
+                             f"{' or '.join(k.__name__ for k in kinds)}, or null for the preset's.")
+    return options
 
 
-def pixel_options(pixels) -> dict:
-    """The keyword arguments of :func:`pixel_env` / :func:`make_pixel_env` from a recipe's ``pixels`` section."""
-    return dict(frame_stack=pixels.frame_stack, image_size=pixels.image_size, render_profile=pixels.render_profile)
+def config_settings(section, overrides: Mapping | None = None) -> EnvSettings:
+    """The :class:`EnvSettings` of a config's env section (a recipe's ``env``, a trained run's
+    stored ``env``, any mapping of ``domain``, ``task`` and options), ``overrides`` over its options.
 
-
-def env_settings(domain: str, task: str, options: Mapping) -> EnvSettings:
-    """Resolves (and so validates, in this process) a recipe's env options.
-
-    Raises a clear error for unknown options, tasks or presets and for a background folder that
-    does not exist, before any worker starts.
+    Resolved, so validated in this process: a clear error for unknown options, values of the wrong
+    type, tasks or presets and for a background folder that does not exist, before any worker starts.
     """
+    options = {**_section_options(section), **(overrides or {})}
     folder = options.get("background_dir")
     if folder is not None and not Path(folder).expanduser().exists():
         raise FileNotFoundError(
             f"env.background_dir={folder!r} does not exist: point it at a DAVIS 2017 folder (or a folder of "
             "videos), or leave it null for the embedded default videos."
         )
-    return resolve_settings(domain, task, **options)
+    return resolve_settings(section["domain"], section["task"], **options)
+
+
+def train_eval_settings(cfg) -> tuple[EnvSettings, EnvSettings]:
+    """The training env and the evaluation env of a recipe config (``eval_env``: the non-null
+    overrides of ``env``), resolved and so validated."""
+    overrides = {k: v for k, v in _section_options(cfg.eval_env).items() if v is not None}
+    return config_settings(cfg.env), config_settings(cfg.env, overrides)
+
+
+def pixel_options(pixels) -> dict:
+    """The keyword arguments of :func:`pixel_env` / :func:`batched_pixel_env` from a recipe's ``pixels`` section."""
+    return dict(frame_stack=pixels.frame_stack, image_size=pixels.image_size, render_profile=pixels.render_profile)
 
 
 def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, render_profile: str, seed: int | None = None,
@@ -83,7 +97,7 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     env = make_env(
         settings.domain, settings.task, seed=seed, height=image_size, width=image_size, render_profile=render_profile,
         backend=backend, num_envs=num_envs, **({} if device is None else {"device": device}),
-        **{k: getattr(settings, k) for k in ENV_OPTIONS},
+        **{k: getattr(settings, k) for k in SCENE_OPTIONS},
     )
     pixels = Compose(
         PermuteTransform((-1, -3, -2), in_keys=["pixels"]),
@@ -123,7 +137,7 @@ def render_device(cfg, choice=None) -> int | None:
         return None
 
 
-def make_pixel_env(
+def batched_pixel_env(
     settings: EnvSettings,
     *,
     num_workers: int,

@@ -32,7 +32,8 @@ from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
-from dcs_torchrl.training.envs import close_env, make_pixel_env, pixel_env_factory, pixel_options, recipe_settings, render_device
+from dcs_torchrl.training.envs import (batched_pixel_env, close_env, pixel_env_factory, pixel_options, render_device,
+                                      train_eval_settings)
 from dcs_torchrl.training.execution import ExecutionOptions, apply_math_settings, check_execution, on_device, replay_device
 from dcs_torchrl.training.media import plot_learning_curve, write_mp4
 from dcs_torchrl.training.metrics import MetricsLogger, RunningMeans, read_metrics
@@ -87,7 +88,7 @@ def _set_rng_state(state: dict) -> None:
 
 
 def _check_config(cfg: DictConfig) -> None:
-    """Refuses bad settings before anything is written (the env settings: :func:`recipe_settings`)."""
+    """Refuses bad settings before anything is written (the env settings: :func:`train_eval_settings`)."""
     method_name(cfg.algo.name, cfg.algo.aug)
     for name in ("total_frames", "replay_buffer.size", "algo.batch_size", "eval.episodes", "eval.interval", "checkpoint.interval"):
         value = OmegaConf.select(cfg, name)
@@ -126,7 +127,7 @@ def train(cfg: DictConfig, build_agent: AgentBuilder, run_dir: str | Path) -> di
     evaluate and write ``results.json`` (see ``docs/results_format.md``), which is returned.
     """
     _check_config(cfg)
-    recipe_settings(cfg)  # bad env settings fail here, before the run directory is touched
+    train_eval_settings(cfg)  # bad env settings fail here, before the run directory is touched
     run = RunDirectory(run_dir, OmegaConf.to_container(cfg, resolve=True))
     run.claim()
     done = run.finished(cfg.total_frames)
@@ -150,7 +151,7 @@ class Workspace:
     def __init__(self, cfg: DictConfig, build_agent: AgentBuilder, run: RunDirectory):
         self.cfg, self.run = cfg, run
         self.method = method_name(cfg.algo.name, cfg.algo.aug)
-        self.train_settings, self.eval_settings = recipe_settings(cfg)
+        self.train_settings, self.eval_settings = train_eval_settings(cfg)
         self.repeat = self.train_settings.action_repeat
         self.total_steps = -(-cfg.total_frames // self.repeat)  # agent steps, rounded up
         self.options = ExecutionOptions.from_config(cfg)
@@ -169,10 +170,10 @@ class Workspace:
         self.eval_make = None
         if cfg.eval.num_workers > 1 and torch.device(cfg.device).type == "cpu" and self.render_device is None:
             self.eval_make = pixel_env_factory(self.eval_settings, cfg.pixels)
-        self.env = make_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
+        self.env = batched_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
         try:
-            self.eval_env = make_pixel_env(self.eval_settings, num_workers=1 if self.eval_make else cfg.eval.num_workers,
-                                           seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
+            self.eval_env = batched_pixel_env(self.eval_settings, num_workers=1 if self.eval_make else cfg.eval.num_workers,
+                                              seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)
             observation_shape = tuple(self.env.observation_spec["pixels"].shape[-3:])
             action_spec = self.env.action_spec[0] if self.env.batch_size else self.env.action_spec
             self.agent = build_agent(cfg, observation_shape, action_spec)

@@ -229,7 +229,7 @@ def test_each_visible_gpu_has_the_egl_device_the_recipes_render_on():
     the frames an env rendering on this process's device gives (the same GPU model, the same driver)."""
     from dcs_torchrl.egl_devices import egl_device_of_cuda, egl_devices
     from dcs_torchrl.envs import resolve_settings
-    from dcs_torchrl.training.envs import make_pixel_env, render_device
+    from dcs_torchrl.training.envs import batched_pixel_env, render_device
 
     devices = egl_devices()
     indices = [egl_device_of_cuda(k, devices) for k in range(torch.cuda.device_count())]
@@ -238,7 +238,7 @@ def test_each_visible_gpu_has_the_egl_device_the_recipes_render_on():
     settings = resolve_settings("cartpole", "swingup", benchmark="medium")
     frames = []
     for device in (None, indices[-1]):
-        env = make_pixel_env(settings, num_workers=1, seed=1, frame_stack=3, image_size=64, render_device=device)
+        env = batched_pixel_env(settings, num_workers=1, seed=1, frame_stack=3, image_size=64, render_device=device)
         frames.append(env.reset()["pixels"])
         env.close()
     assert frames[0].shape == frames[1].shape

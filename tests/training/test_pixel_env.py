@@ -4,7 +4,7 @@ import torch
 
 from dcs_torchrl import make_env
 from dcs_torchrl.envs import resolve_settings
-from dcs_torchrl.training.envs import make_pixel_env, pixel_env
+from dcs_torchrl.training.envs import batched_pixel_env, pixel_env
 
 STACK, SIZE, STEPS = 3, 32, 5
 
@@ -45,10 +45,10 @@ def test_the_stack_repeats_the_first_frame_at_reset_then_holds_the_last_frames_i
 
 
 def test_the_batched_recipe_env_stacks_each_sub_envs_frames_from_its_own_reset():
-    """The same through the recipes' batched env (``make_pixel_env``): the first observation is the
+    """The same through the recipes' batched env (``batched_pixel_env``): the first observation is the
     first frame repeated, and a sub-env's reset after a done starts its stack anew."""
     settings = resolve_settings("cartpole", "swingup", action_repeat=250)  # 4 agent steps an episode
-    env = make_pixel_env(settings, num_workers=1, seed=0, image_size=SIZE)
+    env = batched_pixel_env(settings, num_workers=1, seed=0, image_size=SIZE)
     td = env.reset()
     first = td["pixels"][0]
     assert all(torch.equal(first[3 * i : 3 * i + 3], first[:3]) for i in range(STACK))
@@ -69,9 +69,9 @@ def test_an_env_that_renders_on_another_egl_device_than_this_process_runs_in_a_w
     from dcs_torchrl import ParallelSuiteEnv
 
     settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True)
-    here = make_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
+    here = batched_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")  # what this process "renders on"; the worker is told 0
-    there = make_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
+    there = batched_pixel_env(settings, num_workers=1, seed=5, frame_stack=STACK, image_size=SIZE, render_device=0)
     try:
         assert isinstance(here.base_env, SerialEnv)  # device 0 was this process's: no worker
         assert isinstance(there.base_env, ParallelSuiteEnv)

@@ -1,6 +1,6 @@
 """The recipes' seeds: every worker and distraction its own stream, evaluation apart from training.
 
-The batched envs are built by the recipes' own code (:func:`make_pixel_env`, :class:`Workspace`)
+The batched envs are built by the recipes' own code (:func:`batched_pixel_env`, :class:`Workspace`)
 with their workers in this process, so that each worker's env can be looked at: ``SerialEnv``
 seeds its workers as ``ParallelSuiteEnv`` and ``ParallelEnv`` do (each the seed the previous one's ``set_seed`` returns).
 """
@@ -13,7 +13,7 @@ import dcs_torchrl.training.envs as training_envs
 from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunDirectory
-from dcs_torchrl.training.envs import close_env, make_pixel_env
+from dcs_torchrl.training.envs import batched_pixel_env, close_env
 from dcs_torchrl.evaluation import evaluate
 from dcs_torchrl.training import loop
 from dcs_torchrl.training.loop import Workspace
@@ -56,7 +56,7 @@ def _workers(env) -> list:
 
 def test_every_worker_and_distraction_draws_its_own_stream(workers_in_process):
     settings = resolve_settings("cartpole", "swingup", benchmark="easy")
-    env = make_pixel_env(settings, num_workers=2, seed=5, image_size=16)
+    env = batched_pixel_env(settings, num_workers=2, seed=5, image_size=16)
     try:
         streams = {(f"worker {i}", name): numbers for i, worker in enumerate(_workers(env))
                    for name, numbers in distraction_streams(worker).items()}

@@ -23,12 +23,9 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 import os
-import threading
-import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
-from multiprocessing.connection import wait
 
 import torch
 from tensordict import TensorDictBase
@@ -213,7 +210,10 @@ def evaluate_in_processes(
             themselves run with :func:`evaluate`'s ``threads`` (:data:`EVAL_THREADS`, as everywhere).
         **options: :func:`evaluate`'s keyword arguments (``exploration_type``, ``max_steps``, ...).
     """
-    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
+    from concurrent.futures.process import BrokenProcessPool
+
+    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share
+    from dcs_torchrl.process_pool import SpawnedPool
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}.")
@@ -226,30 +226,24 @@ def evaluate_in_processes(
         threads = max(1, (os.cpu_count() or 1) // shares)
     counts = [len(range(i, episodes, workers)) for i in range(shares)]
     env = make_env()
-    procs, pipes = [], []
     try:
         seeds = [seed]
         for _ in range(shares - 1):
             seeds.append(env.set_seed(seeds[-1]))
-        ctx = mp.get_context("spawn")
-        with spawn_environment({RENDER_THREADS_VARIABLE: render_threads_share(threads)}):
-            for i in range(1, shares):
-                here, there = ctx.Pipe(duplex=False)
-                args = (make_env, policy, counts[i], seeds[i], options, threads, os.getpid(), there)
-                proc = ctx.Process(target=_evaluate_share, args=args, daemon=True, name=f"evaluate-{i}")
-                proc.start()
-                there.close()
-                procs.append(proc)
-                pipes.append(here)
-        returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
-        returns += _share_returns(procs, pipes)
+        with SpawnedPool(max(1, shares - 1), environment={RENDER_THREADS_VARIABLE: render_threads_share(threads)},
+                         threads=threads) as pool:
+            futures = [pool.submit(_evaluate_share, make_env, policy, counts[i], seeds[i], options)
+                       for i in range(1, shares)]
+            returns = [evaluate(env, policy, counts[0], seed=seeds[0], **options).returns]
+            for i, future in enumerate(futures, start=1):
+                try:
+                    returns.append(future.result())
+                except BrokenProcessPool:
+                    raise RuntimeError(f"evaluation process {i} died before sending its returns: look for its "
+                                       "error above.") from None
+                except Exception as error:
+                    raise RuntimeError(f"evaluation process {i} failed:\n{_remote_traceback(error)}") from error
     finally:
-        for proc in procs:
-            if proc.is_alive():
-                proc.terminate()
-            proc.join(timeout=10)
-        for pipe in pipes:
-            pipe.close()
         env.close()
     ordered: list[float] = [0.0] * episodes
     for i, share in enumerate(returns):
@@ -257,47 +251,16 @@ def evaluate_in_processes(
     return EvalResult(tuple(ordered))
 
 
-def _share_returns(procs: list, pipes: list) -> list[tuple[float, ...]]:
-    """Each process's returns, in process order; raises with a failed process's traceback."""
-    out: dict[int, tuple[float, ...]] = {}
-    index = {pipe: i for i, pipe in enumerate(pipes)}
-    while len(out) < len(pipes):
-        for pipe in wait([p for p in pipes if index[p] not in out]):  # a dead process's pipe reads EOF
-            i = index[pipe]
-            try:
-                status, value = pipe.recv()
-            except EOFError:
-                procs[i].join(timeout=1.0)
-                raise RuntimeError(f"evaluation process {i + 1} died (exit code {procs[i].exitcode}) before "
-                                   "sending its returns: look for its error above.") from None
-            if status != "ok":
-                raise RuntimeError(f"evaluation process {i + 1} failed:\n{value}")
-            out[i] = value
-    return [out[i] for i in range(len(pipes))]
+def _remote_traceback(error: BaseException) -> str:
+    """The traceback a pool's process sent with ``error`` (its ``__cause__``), else the error."""
+    cause = error.__cause__
+    return str(cause) if cause is not None else "".join(traceback.format_exception(error))
 
 
-def _evaluate_share(make_env, policy, episodes: int, seed: int, options: dict, threads: int, parent: int,
-                    pipe) -> None:
-    """One process's share of :func:`evaluate_in_processes`: its env's episodes, sent back as returns."""
-    torch.set_num_threads(threads)
-    threading.Thread(target=exit_with, args=(parent,), daemon=True).start()
+def _evaluate_share(make_env, policy, episodes: int, seed: int, options: dict) -> tuple[float, ...]:
+    """One process's share of :func:`evaluate_in_processes`: its env's episodes' returns."""
+    env = make_env()
     try:
-        env = make_env()
-        try:
-            result = ("ok", evaluate(env, policy, episodes, seed=seed, **options).returns)
-        finally:
-            env.close()
-    except BaseException:
-        result = ("failed", traceback.format_exc())
-    try:
-        pipe.send(result)
-    except (BrokenPipeError, OSError):  # the caller is gone
-        pass
-
-
-def exit_with(parent: int) -> None:
-    """Ends this process when the process that started it (pid ``parent``) is gone: killed, no one
-    would read its results. Run it in a daemon thread."""
-    while os.getppid() == parent:
-        time.sleep(1.0)
-    os._exit(1)
+        return evaluate(env, policy, episodes, seed=seed, **options).returns
+    finally:
+        env.close()

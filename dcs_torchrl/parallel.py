@@ -45,6 +45,8 @@ __all__ = ["ParallelSuiteEnv"]
 _STEP, _RESET, _SEED, _CLOSE = b"s", b"r", b"e", b"c"
 _OK, _FAILED = b"k", b"f"
 _POLL_S = 1.0  # how often a wait checks that the workers are alive
+_BUFFERS = torch.device("cpu")  # where the workers' shared buffers live (shared memory)
+_SPECS = ("full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec")
 #: Default seconds a process polls its pipes before it sleeps (``spin_s``): a sleeping process
 #: takes 0.1-0.3 ms to wake on a virtual machine's idle core, twice a step.
 SPIN_S = 0.003
@@ -55,7 +57,8 @@ class ParallelSuiteEnv(EnvBase):
     process (``first_here``), the others each in its own spawned process.
 
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
-    a render (the suite's): the same specs, seeding and partial resets, usable with TorchRL's
+    a render (the suite's): the same specs, seeding, partial resets (``"_reset"``: the other envs
+    continue their episodes) and partial steps (``"_step"``, which ``rollout`` writes), usable with TorchRL's
     collectors, ``rollout`` and the suite's evaluation; faster than TorchRL's ``ParallelEnv`` with the
     suite's envs on small machines (docs/performance.md, "Parallel envs"; ``benchmarks/parallel_speed.py``).
 
@@ -92,6 +95,9 @@ class ParallelSuiteEnv(EnvBase):
             first entry this process's device), else ``False``. ``True`` with another device first
             raises ``ValueError`` (dm_control picks a process's EGL device once, at import).
         mp_start_method (str): ``"spawn"`` (default; EGL contexts do not survive ``fork``).
+        device (optional): the env's device, where its specs say and its outputs are (e.g.
+            ``"cuda"`` for a policy on a GPU); the workers' envs and their shared buffers stay on
+            the CPU, actions are copied there. Default ``"cpu"``.
 
     Examples:
         >>> import functools
@@ -109,7 +115,7 @@ class ParallelSuiteEnv(EnvBase):
 
     def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
                  render_devices: Sequence[int] | None = None, spin_s: float = SPIN_S,
-                 first_here: bool | None = None, mp_start_method: str = "spawn"):
+                 first_here: bool | None = None, mp_start_method: str = "spawn", device=None):
         if not isinstance(num_workers, int) or isinstance(num_workers, bool) or num_workers < 1:
             raise ValueError(f"num_workers must be an int >= 1, got {num_workers!r}.")
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
@@ -131,7 +137,7 @@ class ParallelSuiteEnv(EnvBase):
                 f"not render_devices[0] = {devices[0]}: pass first_here=False, or set {_EGL_DEVICE} before importing "
                 "dm_control."
             )
-        super().__init__(batch_size=[num_workers], device="cpu")
+        super().__init__(batch_size=[num_workers], device=_BUFFERS if device is None else device)
         self.num_workers = num_workers
         self._render_devices = devices
         self._spin_s = float(spin_s)
@@ -159,6 +165,9 @@ class ParallelSuiteEnv(EnvBase):
             self._wait(range(num_workers))  # every env built (or the first error raised)
             self._set_specs(self._here.specs() if first_here else self._pipes[0].recv())
             self._buffers = _shared_buffers(self)
+            if self.device != _BUFFERS:
+                for name in _SPECS:
+                    setattr(self, name, getattr(self, name).to(self.device))
             for pipe in self._remote(range(num_workers)):
                 pipe.send(self._buffers)
             if first_here:
@@ -176,23 +185,32 @@ class ParallelSuiteEnv(EnvBase):
     # ------------------------------------------------------------------ set-up
     def _set_specs(self, specs: dict) -> None:
         n = self.num_workers
-        for name in ("full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec"):
-            setattr(self, name, specs[name].expand(n, *specs[name].shape))
+        for name in _SPECS:
+            setattr(self, name, specs[name].expand(n, *specs[name].shape).to(_BUFFERS))
 
     # ------------------------------------------------------------- TorchRL hooks
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """Steps the workers that ``"_step"`` marks (all without it: TorchRL's ``rollout`` writes it
+        for the envs still running); an env not stepped keeps its last observation and done flags,
+        with reward 0, as the batched env's."""
         self._buffers["action"].update_(tensordict.select(*self.action_keys))
-        self._command(_STEP, range(self.num_workers))
-        return _copy(self._buffers["next"])
+        workers = _marked(tensordict, "_step", self.num_workers)
+        self._command(_STEP, workers)
+        out = _copy(self._buffers["next"])
+        if len(workers) < self.num_workers:
+            skipped = torch.ones(self.num_workers, dtype=torch.bool)
+            skipped[workers] = False
+            for key in self.reward_keys:
+                out.get(key)[skipped] = 0
+        return out.to(self.device) if self.device != _BUFFERS else out
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         if kwargs:
             raise TypeError(f"ParallelSuiteEnv.reset takes no keyword arguments, got {sorted(kwargs)}.")
-        workers = range(self.num_workers)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            workers = tensordict.get("_reset").reshape(self.num_workers, -1).any(-1).nonzero().flatten().tolist()
+        workers = _marked(tensordict, "_reset", self.num_workers)
         self._command(_RESET, workers)
-        return _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
+        out = _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
+        return out.to(self.device) if self.device != _BUFFERS else out
 
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seeds worker 0 with ``seed`` and each next worker with what the previous one's
@@ -303,6 +321,14 @@ class ParallelSuiteEnv(EnvBase):
                 )
 
 
+def _marked(tensordict: TensorDictBase | None, key: str, n: int) -> list[int]:
+    """The envs a ``"_reset"`` / ``"_step"`` mask of ``tensordict`` marks; every env without one."""
+    mask = None if tensordict is None else tensordict.get(key, None)
+    if mask is None:
+        return list(range(n))
+    return mask.reshape(n, -1).any(-1).nonzero().flatten().tolist()
+
+
 def _copy(td: TensorDictBase) -> TensorDictBase:
     """A copy of ``td`` made by numpy, in this thread: torch's copy of a frame batch is split over
     its intra-op threads, which then spin waiting for more work, taking the workers' cores."""
@@ -315,7 +341,7 @@ def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
     for spec in (env.full_observation_spec, env.full_reward_spec, env.full_done_spec):
         step_spec.update(spec)
     return TensorDict(
-        {"action": env.full_action_spec.zero(), "next": step_spec.zero()}, batch_size=env.batch_size, device=env.device
+        {"action": env.full_action_spec.zero(), "next": step_spec.zero()}, batch_size=env.batch_size, device=_BUFFERS
     ).share_memory_()
 
 
@@ -364,8 +390,7 @@ class _Stepper:
         self.env, self.td = env, None
 
     def specs(self) -> dict:
-        return {name: getattr(self.env, name) for name in (
-            "full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec")}
+        return {name: getattr(self.env, name) for name in _SPECS}
 
     def attach(self, buffers: TensorDictBase, index: int) -> None:
         self.action, self.out = buffers["action"][index], buffers["next"][index]

@@ -24,7 +24,6 @@ import argparse
 import json
 import os
 import shutil
-import threading
 import time
 from collections import Counter
 from collections.abc import Hashable, Iterator, Mapping, Sequence
@@ -295,56 +294,47 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
     """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
     spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a setting whenever one of its
     processes is free."""
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from contextlib import ExitStack
 
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, render_threads_share, spawn_environment
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, render_threads_share
+    from dcs_torchrl.process_pool import SpawnedPool
 
     threads = max(1, (os.cpu_count() or 1) // processes)
-    render_threads = render_threads_share(threads)
     share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
     todo = iter(settings.items())
     running = {}
     with ExitStack() as stack:
-        def feed(pool, render):
+        def feed(pool):
             item = next(todo, None)
-            if item is not None:  # a process spawned by this submit renders on the pool's device
-                with spawn_environment({EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads}):
-                    running[pool.submit(_evaluate_in_worker, item[1], episodes, workers, backend)] = item[0], pool, render
+            if item is not None:
+                running[pool.submit(_evaluate_in_worker, item[1], episodes, workers, backend)] = item[0], pool
 
         for render, count in share.items():
-            pool = stack.enter_context(ProcessPoolExecutor(
-                count, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
-                initargs=(os.fspath(agent), device, final, threads, os.getpid(), render)))
+            pool = stack.enter_context(SpawnedPool(
+                count, environment={EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads_share(threads)},
+                threads=threads, initializer=_start_worker, initargs=(os.fspath(agent), device, final, render)))
             for _ in range(count):
-                feed(pool, render)
+                feed(pool)
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
-                key, pool, render = running.pop(future)
+                key, pool = running.pop(future)
                 result = future.result()
-                feed(pool, render)
+                feed(pool)
                 yield key, *result
 
 
 _WORKER_AGENT = None
 
 
-def _start_worker(agent: str, device: str, final: bool, threads: int, parent: int, render: int | None) -> None:
+def _start_worker(agent: str, device: str, final: bool, render: int | None) -> None:
     from dcs_torchrl.egl_devices import process_render_device
 
-    if render is not None and process_render_device() != render:  # spawned outside egl_device_environment
+    if render is not None and process_render_device() != render:  # spawned outside its pool's environment
         raise RuntimeError(f"an evaluation process meant to render on EGL device {render} was started on "
                            f"{process_render_device()}: it must be spawned with MUJOCO_EGL_DEVICE_ID={render}.")
-    import torch
-
-    from dcs_torchrl.evaluation import exit_with
-
-    threading.Thread(target=exit_with, args=(parent,), daemon=True).start()
-
     global _WORKER_AGENT
-    torch.set_num_threads(threads)
     _WORKER_AGENT = load_pretrained(agent, device, final=final)
 
 

@@ -41,11 +41,13 @@ def test_the_probe_sees_what_a_module_imports():
 def test_the_distraction_base_imports_no_processes_nor_evaluation():
     loaded = _loaded(DISTRACTION_BASE)
     assert set(DISTRACTION_BASE) <= loaded
-    assert not loaded & {"dcs_torchrl.parallel", "dcs_torchrl.evaluation"}
+    assert not loaded & {"dcs_torchrl.parallel", "dcs_torchrl.evaluation", "dcs_torchrl.process_pool"}
 
 
-def test_the_parallel_env_does_not_import_the_evaluation_protocol():
-    assert "dcs_torchrl.evaluation" not in _loaded(["dcs_torchrl.parallel"])
+def test_nothing_below_the_envs_imports_the_evaluation_protocol():
+    """The envs (one, batched, in processes) and the pool of whole jobs import no evaluation."""
+    loaded = _loaded(["dcs_torchrl.envs", "dcs_torchrl.parallel", "dcs_torchrl.batched", "dcs_torchrl.process_pool"])
+    assert "dcs_torchrl.evaluation" not in loaded
 
 
 def test_torch_threads_is_still_the_evaluation_modules():

@@ -90,6 +90,87 @@ def test_specs_partial_reset_and_a_collector(first_here):
     env.close(raise_if_closed=False)
 
 
+def _alone(seed: int, actions: torch.Tensor, reset_after: int | None = None) -> list:
+    """(pixels, reward, done, distraction state) after each action of one env seeded ``seed``,
+    reset once after ``reset_after`` actions (None: one episode throughout)."""
+    env = FACTORY()
+    env.set_seed(seed)
+    td, out = env.reset(), []
+    for k, action in enumerate(actions):
+        if k == reset_after:
+            td = env.reset()
+        td = env.step(td.set("action", action))["next"]
+        out.append(td.select("pixels", "reward", "done", "distractions").clone())
+    env.close()
+    return out
+
+
+@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+def test_an_env_not_reset_continues_its_episode(first_here):
+    """A partial reset restarts the marked env only: the other's next steps are those of one env
+    stepped without a reset (TorchRL's reset keeps the old entries of the envs not reset, so the
+    returned frames alone cannot tell)."""
+    actions = _actions(6, 2)
+    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
+    for reset in (0, 1):
+        env.set_seed(7)
+        td = env.reset()
+        for action in actions[:3]:
+            td = env.step(td.set("action", action))["next"]
+        td["_reset"] = torch.tensor([[reset == 0], [reset == 1]])
+        td = env.reset(td)
+        later = []
+        for action in actions[3:]:
+            td = env.step(td.set("action", action))["next"]
+            later.append(td.select("pixels", "reward", "done", "distractions").clone())
+        for worker, seed in enumerate(_seeds(7, 2)):
+            alone = _alone(seed, actions[:, worker], reset_after=3 if worker == reset else None)[3:]
+            for k, (got, want) in enumerate(zip(later, alone)):
+                assert (got[worker] == want).all(), f"reset {reset}: worker {worker}, step {k} after the reset"
+    env.close()
+
+
+@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+def test_an_env_not_stepped_waits_and_then_continues(first_here):
+    """``"_step"`` (written by ``rollout(break_when_all_done=True)``) steps the marked envs only: the
+    other keeps its frame and done flags, with reward 0, and later continues from where it was."""
+    actions = _actions(3, 2)
+    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
+    env.set_seed(7)
+    td = env.reset()
+    td = env.step(td.set("action", actions[0]))["next"]
+    before = td["pixels"].clone()
+    td.set("action", actions[1]).set("_step", torch.tensor([False, True]))
+    skipped = env.step(td)["next"]
+    assert torch.equal(skipped["pixels"][0], before[0]) and skipped["reward"][0].item() == 0
+    assert not torch.equal(skipped["pixels"][1], before[1])
+    skipped.pop("_step", None)
+    out = env.step(skipped.set("action", actions[2]))["next"]
+    env.close()
+    seeds = _seeds(7, 2)
+    first = _alone(seeds[0], actions[[0, 2], 0])  # env 0 skipped the second action
+    second = _alone(seeds[1], actions[:, 1])
+    assert (out[0].select(*first[-1].keys(True, True)) == first[-1]).all()
+    assert (out[1].select(*second[-1].keys(True, True)) == second[-1]).all()
+
+
+@pytest.mark.parametrize("device", ["cpu"] + (["cuda"] if torch.cuda.is_available() else []))
+def test_the_envs_device_holds_its_specs_and_outputs(device):
+    """``device`` is where the env's specs and outputs are (the workers stay on the CPU); actions
+    on that device reach the workers."""
+    env = ParallelSuiteEnv(2, FACTORY, device=device)
+    assert env.device == torch.device(device)
+    assert env.observation_spec["pixels"].device == env.action_spec.device == torch.device(device)
+    env.set_seed(7)
+    td = env.reset()
+    assert td["pixels"].device == torch.device(device)
+    out = env.step(td.set("action", _actions(1, 2)[0].to(device)))["next"]
+    assert out["pixels"].device == out["reward"].device == torch.device(device)
+    env.close()
+    alone = _alone(_seeds(7, 2)[1], _actions(1, 2)[:, 1])
+    assert torch.equal(out["pixels"][1].cpu(), alone[0]["pixels"])
+
+
 def test_this_processes_threads_are_left_alone():
     threads = torch.get_num_threads()
     env = ParallelSuiteEnv(2, FACTORY)
@@ -204,6 +285,33 @@ def _alive(pid: int) -> bool:
             return f.read().rsplit(")", 1)[1].split()[0] != "Z"
     except FileNotFoundError:
         return False
+
+
+def test_worker_i_is_started_for_render_devices_i_mod_len(monkeypatch):
+    """On a node shaped like four GPUs, render_devices=[2, 3] starts workers 0, 1, 2 for EGL devices
+    2, 3, 2. This machine has one EGL device: each worker's device is recorded and it is started on
+    device 0, with this process pretending to render on 1, so that a worker which did not get its
+    variable fails (dm_control refuses a device the machine lacks)."""
+    from contextlib import contextmanager
+
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
+
+    started, spawn_environment = [], dcs.parallel.spawn_environment
+
+    @contextmanager
+    def on_device_zero(variables):
+        started.append(variables[EGL_DEVICE_VARIABLE])
+        with spawn_environment({**variables, EGL_DEVICE_VARIABLE: 0}):
+            yield
+
+    monkeypatch.setattr(dcs.parallel, "render_device_indices", lambda devices: list(devices))
+    monkeypatch.setattr(dcs.parallel, "spawn_environment", on_device_zero)
+    monkeypatch.setenv(EGL_DEVICE_VARIABLE, "1")
+    env = ParallelSuiteEnv(3, FACTORY, render_devices=[2, 3], first_here=False)
+    env.set_seed(0)
+    assert env.reset()["pixels"].shape == (3, 32, 32, 3)
+    env.close()
+    assert started == [2, 3, 2]
 
 
 def test_the_package_exports_it():

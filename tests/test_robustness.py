@@ -262,14 +262,31 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
 
 
 def test_workers_render_on_the_chosen_device_with_the_returns_of_this_process(tmp_path, monkeypatch):
-    """--render-devices: the workers are spawned on the chosen EGL device (here 0, with this process
-    pretending to render on 1, so that nothing may run here) and give the returns of an evaluation here."""
+    """--render-devices on a node shaped like four GPUs: render_devices=[2, 3] with three processes
+    gives a pool of two processes on EGL device 2 and one on device 3 (process i on
+    render_devices[i % len]). This machine has one EGL device, so each pool's device is recorded and
+    its processes are spawned on device 0, with this process pretending to render on 1: a process
+    that did not get its pool's variable fails its start. The returns are those of an evaluation here."""
+    from dcs_torchrl import egl_devices, process_pool
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
+
+    pools = []
+
+    class OnDeviceZero(process_pool.SpawnedPool):
+        def __init__(self, processes, *, environment, initargs, **kwargs):
+            pools.append((environment[EGL_DEVICE_VARIABLE], processes))
+            super().__init__(processes, environment={**environment, EGL_DEVICE_VARIABLE: 0},
+                             initargs=(*initargs[:-1], 0), **kwargs)
+
     points = [Point("camera", 0.3, True), Point("color", 0.5, False), Point("background", 0.2, False)]
     agent = load_pretrained(AGENT)
     alone = [list(agent.evaluate(1, **p.overrides()).returns) for p in points]
+    monkeypatch.setattr(process_pool, "SpawnedPool", OnDeviceZero)
+    monkeypatch.setattr(egl_devices, "render_device_indices", lambda devices: list(devices))
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")
-    rows = sweep_agent(AGENT, points, tmp_path, episodes=1, workers=2, progress=False, render_devices=[0])
-    assert [row["returns"] for row in rows] == alone  # three points fed to two processes as each is free
+    rows = sweep_agent(AGENT, points, tmp_path, episodes=1, workers=3, progress=False, render_devices=[2, 3])
+    assert sorted(pools) == [(2, 2), (3, 1)]
+    assert [row["returns"] for row in rows] == alone
 
 
 def test_a_render_device_the_machine_lacks_is_refused_before_anything_is_written(tmp_path, capsys):
@@ -286,4 +303,4 @@ def test_an_evaluation_process_spawned_on_another_device_than_its_own_refuses_to
 
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "0")
     with pytest.raises(RuntimeError, match="must be spawned with MUJOCO_EGL_DEVICE_ID=3"):
-        _start_worker(AGENT, "cpu", False, 1, 0, 3)
+        _start_worker(AGENT, "cpu", False, 3)

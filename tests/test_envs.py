@@ -186,7 +186,7 @@ def test_env_options_have_one_source():
         resolve_settings("cartpole", "swingup", cam_scale=0.1)
     with pytest.raises(ValueError, match=r"unknown env setting\(s\) \['height'\]"):  # not a scene option
         resolve_settings("cartpole", "swingup", height=64)
-    with pytest.raises(TypeError, match=r"make_env\(\) got unknown keyword argument\(s\) \['cam_scale'\]: choose among"):
+    with pytest.raises(TypeError, match=r"make_env\(\) got unknown keyword argument\(s\) \['cam_scale'\]: choose"):
         make_env("cartpole", "swingup", cam_scale=0.1)
 
 

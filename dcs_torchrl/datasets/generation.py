@@ -133,7 +133,7 @@ def generate(out: str | os.PathLike, *, domain: str, task: str, episodes: int,
              policies: Sequence[str | BehaviourPolicy] = ("random",),
              seed: int = 0, mixing: Mixing = Mixing(), masks: bool = False, image_size: int | None = None,
              render_profile: str | None = None, max_steps: int | None = None, progress: bool = False,
-             **env_options) -> dict:
+             **options) -> dict:
     """Writes (or resumes, or extends) the dataset ``out``; returns its metadata.
 
     Args:
@@ -151,7 +151,8 @@ def generate(out: str | os.PathLike, *, domain: str, task: str, episodes: int,
         image_size, render_profile: default to the agents' (else 84, ``"default"``).
         max_steps: cut episodes after that many steps (``truncated``), e.g. for short test sets.
         progress: a progress bar (tqdm) over the episodes.
-        **env_options: make_env's settings (``benchmark``, ``dynamic``, ``camera_scale``, ...).
+        **options: make_env's scene options (:data:`dcs_torchrl.envs.SCENE_OPTIONS`: ``benchmark``,
+            ``dynamic``, ``camera_scale``, ...).
     """
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"--episodes must be an integer >= 1, got {episodes!r}.")
@@ -161,7 +162,7 @@ def generate(out: str | os.PathLike, *, domain: str, task: str, episodes: int,
         raise ValueError(f"--max-steps must be >= 1 (or left out: the task's time limit), got {max_steps}.")
     if not policies:
         raise ValueError("give at least one --policy (random, a shipped agent's name or a run directory).")
-    settings = resolve_settings(domain, task, **env_options)
+    settings = resolve_settings(domain, task, **options)
     behaviours = [p if isinstance(p, BehaviourPolicy) else load_behaviour(p) for p in policies]
     pixels = _pixels(behaviours, image_size, render_profile) | {"masks": bool(masks), "backend": "gl"}
     for b in behaviours:

@@ -1,12 +1,17 @@
 """Resident memory of the suite: all 60 default videos, per extra env, and a long soak.
 
     python benchmarks/memory.py [--soak-steps 20000] [--reset-every 25] [--domain cartpole --task swingup]
+    python benchmarks/memory.py --batched 256 --domain cheetah --task run   # backend="warp" only
+
 
 1. a process holding all 60 embedded training videos (decoded at 256x256);
 2. resident memory added by each further env with dynamic backgrounds (frames shared);
 3. resident memory over ``--soak-steps`` agent steps of the hard dynamic benchmark with a
    reset every ``--reset-every`` steps: it must stay flat after warm-up (texture uploads
    and frame caches must not leak).
+
+With ``--batched N``: instead, the resident memory of one ``make_env(..., num_envs=N, backend="warp")``
+env of the medium dynamic benchmark after 20 agent steps, and the process's peak.
 """
 from __future__ import annotations
 
@@ -31,6 +36,26 @@ def rss_mb() -> float:
     raise RuntimeError("no VmRSS in /proc/self/status (Linux only)")
 
 
+def peak_mb() -> float:
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    raise RuntimeError("no VmHWM in /proc/self/status (Linux only)")
+
+
+def batched(args) -> None:
+    start = rss_mb()
+    env = dcs.make_env(args.domain, args.task, benchmark="medium", dynamic=True, seed=0, num_envs=args.batched,
+                       backend="warp")
+    td = env.reset()
+    for _ in range(20):
+        td = env.step(td.set("action", env.action_spec.rand()))["next"]
+    print(f"backend='warp', {args.batched} {args.domain} {args.task} envs, medium dynamic, after 20 steps: "
+          f"{rss_mb():.0f} MB resident ({rss_mb() - start:+.0f} MB over the imports), peak {peak_mb():.0f} MB")
+    env.close()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--domain", default="cartpole")
@@ -38,10 +63,14 @@ def main():
     parser.add_argument("--soak-steps", type=int, default=20_000)
     parser.add_argument("--reset-every", type=int, default=25)
     parser.add_argument("--envs", type=int, default=4)
+    parser.add_argument("--batched", type=int, default=None, metavar="N",
+                        help="only the resident memory of N envs of backend='warp' (medium dynamic)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     start = rss_mb()
     print(f"python + torch + dm_control imported: {start:.0f} MB")
+    if args.batched is not None:
+        return batched(args)
 
     env = dcs.make_env(args.domain, args.task, benchmark="hard", dynamic=True, seed=0, render_profile="fast")
     env.reset()

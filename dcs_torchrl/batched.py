@@ -17,8 +17,10 @@ the envs they name only; the others continue their episodes.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+import re
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 import mujoco
 import numpy as np
@@ -33,7 +35,7 @@ from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
 from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, skybox_faces
 
-__all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "scene_labels"]
+__all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
 
 #: The Warp backend's render settings by ``render_profile``: ``"default"`` draws shadows as GL's
 #: default profile does; ``"fast"`` none.
@@ -64,6 +66,33 @@ def _chunks(n: int, parts: int | None) -> list[range]:
     parts = min(parts, n)
     bounds = [round(k * n / parts) for k in range(parts + 1)]
     return [range(a, b) for a, b in zip(bounds, bounds[1:])]
+
+
+_SKYBOX_ASSET = "./common/skybox.xml"  # dm_control's suite models include it (800 x 800 texels a face)
+
+
+@contextmanager
+def compact_skies(settings) -> Iterator[None]:
+    """dm_control suite models compiled meanwhile get a skybox of ``settings.texture_size`` texels a
+    face instead of 800, where the envs of these settings never read their model's sky: for the envs
+    of a batch after the first, whose own sky is never rendered (the batch renders from the first
+    env's model, and each env's background distraction hands its sky to the renderer). An env reads
+    its sky only to blend videos onto it (``0 < background_blend < 1``); then nothing changes. The
+    physics are the same; at ``texture_size`` 256 each model holds 1.2 MB of sky instead of 11.8 MB."""
+    from dm_control.suite import common
+
+    original = common.ASSETS.get(_SKYBOX_ASSET)
+    if original is None or (settings.num_videos > 0 and 0 < settings.background_blend < 1):
+        yield
+        return
+    side = int(settings.texture_size)
+    text = original.decode() if isinstance(original, bytes) else original
+    compact = re.sub(r'width="\d+" height="\d+"', f'width="{side}" height="{side}"', text)
+    common.ASSETS[_SKYBOX_ASSET] = compact.encode() if isinstance(original, bytes) else compact
+    try:
+        yield
+    finally:
+        common.ASSETS[_SKYBOX_ASSET] = original
 
 
 class _SkySink:

@@ -223,14 +223,16 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
                              "render); the GL backend has no masks.")
     expose = bool(o.expose_distractions)
     if o.backend == "warp":
-        from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv
+        from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv, compact_skies
         from dcs_torchrl.warp_render import import_warp
 
         import_warp()  # the extra's error first
         if o.render_profile not in WARP_PROFILES:
             raise ValueError(f"unknown render_profile {o.render_profile!r} for backend='warp'; choose one of "
                              f"{sorted(WARP_PROFILES)}.")
-        worlds = [_distracted_env(s, expose) for _ in range(1 if o.num_envs is None else o.num_envs)]
+        worlds = [_distracted_env(s, expose)]
+        with compact_skies(s):  # the others' skies are never rendered: their models hold a small one
+            worlds += [_distracted_env(s, expose) for _ in range(1, 1 if o.num_envs is None else o.num_envs)]
         env = BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=s.camera_id,
                               device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
                               masks=o.masks, render_profile=o.render_profile)

@@ -119,6 +119,25 @@ def _continue_alone(seed: int, steps_before: int, actions: torch.Tensor) -> list
     return out
 
 
+def test_only_the_first_model_holds_the_full_sky_unless_videos_are_blended_onto_it():
+    """The batch renders from env 0's model: the others are compiled with a sky of texture_size texels
+    a face (their frames and draws are still GL's: the test above), except where videos are blended
+    onto the sky (0 < background_blend < 1), which each env reads from its own model."""
+    def sky_bytes(env):
+        return [w.physics.model.tex_data.nbytes for w in env._worlds]
+
+    env = _warp(3)
+    full, compact, other = sky_bytes(env)
+    env.close()
+    assert compact == other and compact < full / 5
+    from dm_control.suite import common
+
+    assert b'width="800"' in common.ASSETS["./common/skybox.xml"]  # the suite's asset as it was
+    env = _warp(2, background_blend=0.5)
+    assert len(set(sky_bytes(env))) == 1
+    env.close()
+
+
 def test_an_env_not_reset_continues_its_episode():
     n = 2
     actions = _actions(6, n)

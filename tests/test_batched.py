@@ -357,3 +357,28 @@ def test_the_robustness_command_keeps_warp_points_apart_from_gl_points(tmp_path,
     assert calls == ["warp", "warp", "gl", "gl"]  # the stored Warp point is reused
     with pytest.raises(ValueError, match="unknown backend"):
         sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False, backend="vulkan")
+
+
+def test_a_recipe_collects_with_the_warp_backend_and_records_it(tmp_path):
+    """collector.backend=warp: the recipe's collection steps collector.num_workers envs in one batched
+    env of this process; the run trains, evaluates on GL (the reference) and records the backend."""
+    from hydra import compose, initialize_config_module
+
+    from dcs_torchrl.methods import agent_class
+    from dcs_torchrl.training import train
+
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose("sac", overrides=[
+            "collector.backend=warp", "collector.num_workers=4", "total_frames=1600", "collector.seed_steps=8",
+            "env.benchmark=medium", "env.dynamic=true", "env.action_repeat=100", "pixels.image_size=32",
+            "network.hidden_dim=16", "replay_buffer.size=64", "algo.batch_size=4", "eval.episodes=1",
+            "eval.periodic_episodes=1", "eval.interval=1600", "eval.video=false", "progress=false",
+        ])
+    results = train(cfg, agent_class("sac"), tmp_path / "run")
+    assert results["steps"] == 1600 and results["config"]["collector"]["backend"] == "warp"
+    assert results["eval"]["episodes"] == 1
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        bad = compose("sac", overrides=["collector.backend=vulkan"])
+    with pytest.raises(ValueError, match="collector.backend='vulkan': choose one of"):
+        train(bad, agent_class("sac"), tmp_path / "bad")
+    assert not (tmp_path / "bad").exists()

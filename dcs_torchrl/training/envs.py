@@ -146,9 +146,14 @@ def batched_pixel_env(
     image_size: int = 84,
     render_profile: str = "default",
     render_device: int | None = None,
+    backend: str = "gl",
 ) -> TransformedEnv:
     """``num_workers`` suite envs, batch size ``[num_workers]``, seeded from ``seed`` (the first
     worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
+
+    ``backend="warp"``: the ``num_workers`` envs in this process, rendered in one batch by MuJoCo
+    Warp on the CPU (:class:`~dcs_torchrl.batched.BatchedSuiteEnv`; the same episodes as the GL
+    envs' for the same seed); ``render_device`` is then unused.
 
     One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several
     run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (the first stepped in this process while
@@ -160,11 +165,17 @@ def batched_pixel_env(
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")
     make = functools.partial(pixel_env, settings, frame_stack=frame_stack, image_size=image_size, render_profile=render_profile)
     elsewhere = render_device is not None and render_device != process_render_device()
-    if num_workers == 1 and not elsewhere:
+    if backend == "warp":
+        batched = make(backend="warp", num_envs=num_workers)
+    elif num_workers == 1 and not elsewhere:
         batched = SerialEnv(1, make)
     else:
         batched = ParallelSuiteEnv(num_workers, make, render_devices=None if render_device is None else [render_device])
-    env = TransformedEnv(batched, RewardSum())
+    if isinstance(batched, TransformedEnv):  # the warp batch and its pixel handling: one TransformedEnv
+        batched.append_transform(RewardSum())
+        env = batched
+    else:
+        env = TransformedEnv(batched, RewardSum())
     env.set_seed(seed)
     return env
 

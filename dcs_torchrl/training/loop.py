@@ -28,6 +28,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
+from dcs_torchrl.envs import BACKENDS
 from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
@@ -103,6 +104,19 @@ def _check_config(cfg: DictConfig) -> None:
         raise ValueError(f"device={cfg.device!r} but CUDA is not available: use device=cpu.")
     check_execution(cfg)
     render_device(cfg)  # an EGL device this machine lacks is refused here
+    backend = collector_backend(cfg)
+    if backend not in BACKENDS:
+        raise ValueError(f"collector.backend={backend!r}: choose one of {list(BACKENDS)} (gl: one env per process; "
+                         "warp: collector.num_workers envs in this process, rendered in one batch).")
+    if backend == "warp":
+        from dcs_torchrl.warp_render import import_warp
+
+        import_warp()  # the extra's error, naming it, before anything is written
+
+
+def collector_backend(cfg: DictConfig) -> str:
+    """``collector.backend``: the renderer of the training envs (``gl`` where a stored config has none)."""
+    return OmegaConf.select(cfg, "collector.backend", default="gl")
 
 
 def acting_on(policy, device: str):
@@ -170,7 +184,8 @@ class Workspace:
         self.eval_make = None
         if cfg.eval.num_workers > 1 and torch.device(cfg.device).type == "cpu" and self.render_device is None:
             self.eval_make = pixel_env_factory(self.eval_settings, cfg.pixels)
-        self.env = batched_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed, **pixels)
+        self.env = batched_pixel_env(self.train_settings, num_workers=cfg.collector.num_workers, seed=cfg.seed,
+                                     backend=collector_backend(cfg), **pixels)
         try:
             self.eval_env = batched_pixel_env(self.eval_settings, num_workers=1 if self.eval_make else cfg.eval.num_workers,
                                               seed=cfg.seed + EVAL_SEED_OFFSET, **pixels)

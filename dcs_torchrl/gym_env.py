@@ -50,7 +50,7 @@ from dcs_torchrl import presets
 from dcs_torchrl._private_api import control_timestep
 from dcs_torchrl.envs import EnvOptions, make_env
 
-__all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
+__all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "DistractingControlVectorEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
 
 #: The Gymnasium namespace of the suite's ids.
 NAMESPACE = "dcs"
@@ -96,6 +96,7 @@ def register_envs() -> list[str]:
                     gymnasium.register(
                         id=name,
                         entry_point=f"{__name__}:DistractingControlEnv",
+                        vector_entry_point=f"{__name__}:DistractingControlVectorEnv",
                         kwargs={"domain": domain, "task": task, "benchmark": benchmark, "dynamic": dynamic,
                                 "registered_id": name},
                     )
@@ -184,65 +185,22 @@ class DistractingControlEnv(gymnasium.Env):
 
     def __init__(self, domain: str, task: str, *, obs_type: str = "pixels", render_mode: str | None = None,
                  dict_layout: str = "nested", registered_id: str | None = None, **settings):
-        if registered_id is not None:
-            _check_id(registered_id, domain, task, settings.get("benchmark", "none"), settings.get("dynamic", False))
-        if obs_type not in OBS_TYPES:
-            raise ValueError(f"unknown obs_type {obs_type!r}; choose one of {list(OBS_TYPES)}.")
-        if dict_layout not in DICT_LAYOUTS:
-            raise ValueError(f"unknown dict_layout {dict_layout!r}; choose one of {list(DICT_LAYOUTS)}.")
-        if dict_layout != "nested" and obs_type != "dict":
-            raise ValueError(f"dict_layout={dict_layout!r} lays out a Dict observation: pass obs_type='dict' too.")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"unknown render_mode {render_mode!r}; choose one of {[None, *self.metadata['render_modes']]} "
                 "(gymnasium.make(..., render_mode='rgb_array_list' or 'human') wraps 'rgb_array')."
             )
-        if "pixels_only" in settings:
+        if settings.get("backend", "gl") != "gl" or settings.get("num_envs") is not None:
             raise ValueError(
-                "pixels_only is not a setting of the Gymnasium env: obs_type decides it; pass "
-                "obs_type='pixels' (the frame) or obs_type='dict' (the frame and the physics state)."
+                "DistractingControlEnv is one env (backend='gl'): for a batch of envs rendered by MuJoCo Warp use "
+                "gymnasium.make_vec(id, num_envs=N, vectorization_mode='vector_entry_point') "
+                "(DistractingControlVectorEnv)."
             )
-        unknown = sorted(set(settings) - set(_MAKE_ENV_SETTINGS))
-        if unknown:
-            raise ValueError(
-                f"unknown env setting(s) {unknown}: choose among {list(_MAKE_ENV_SETTINGS)} (make_env's) "
-                "or obs_type, render_mode, dict_layout."
-            )
-        if settings.get("expose_distractions") and obs_type != "dict":
-            raise ValueError(
-                "expose_distractions=True adds the distraction state to a Dict observation: pass obs_type='dict' too."
-            )
-        seed = settings.pop("seed", None)
-        if seed is not None:
-            seed = _checked_seed(seed)
-        self.obs_type = obs_type
-        self.dict_layout = dict_layout
+        seed = _checked_settings(domain, task, obs_type, dict_layout, registered_id, settings)
         self.render_mode = render_mode
         self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", **settings)
-        env = self.torchrl_env
-        base = env.base_env
-        self._action_dtype = env.action_spec.dtype
-        self._action_shape = tuple(env.action_spec.shape)
-        self.action_space = _box(env.action_spec, np.float32)
-        pixels = spaces.Box(0, 255, tuple(env.observation_spec["pixels"].shape), np.uint8)
-        if obs_type == "pixels":
-            self.observation_space = pixels
-            self._state_keys: list = []
-            self._distraction_keys: list = []
-        else:
-            self._state_keys = list(base.observation_spec.keys(True, True))
-            size = sum(int(np.prod(base.observation_spec[k].shape)) for k in self._state_keys)
-            observation = {"pixels": pixels, "state": spaces.Box(-np.inf, np.inf, (size,), np.float64)}
-            self._distraction_keys = []
-            if "distractions" in env.observation_spec.keys():
-                distractions = env.observation_spec["distractions"]
-                self._distraction_keys = list(distractions.keys())
-                boxes = {k: _box(distractions[k]) for k in self._distraction_keys}
-                if dict_layout == "flat":
-                    observation |= {f"distractions/{k}": box for k, box in boxes.items()}
-                else:
-                    observation["distractions"] = spaces.Dict(boxes)
-            self.observation_space = spaces.Dict(observation)
+        _set_spaces(self, self.torchrl_env, obs_type, dict_layout)
+        base = self.torchrl_env.base_env
         # instance metadata: the frame rate of this task and action repeat (RecordVideo reads it)
         self.metadata = {**self.metadata, "render_fps": 1.0 / (control_timestep(base) * base.wrapper_frame_skip)}
         self._frame: np.ndarray | None = None
@@ -321,20 +279,209 @@ class DistractingControlEnv(gymnasium.Env):
             )
 
     def _observation(self, td):
-        frame = td["pixels"].cpu().numpy()
-        self._frame = frame
-        if self.obs_type == "pixels":
-            return frame
-        state = np.concatenate([td[k].cpu().numpy().reshape(-1) for k in self._state_keys])
-        state = state.astype(np.float64, copy=False)
-        obs = {"pixels": frame, "state": state}
-        if self._distraction_keys:
-            distractions = {k: td["distractions", k].cpu().numpy() for k in self._distraction_keys}
-            if self.dict_layout == "flat":
-                obs |= {f"distractions/{k}": value for k, value in distractions.items()}
-            else:
-                obs["distractions"] = distractions
-        return obs
+        self._frame = td["pixels"].cpu().numpy()
+        return _observation(self, td, self._frame)
+
+
+class DistractingControlVectorEnv(gymnasium.vector.VectorEnv):
+    """``num_envs`` Distracting Control Suite envs as one Gymnasium vector env, over
+    ``make_env(..., num_envs=num_envs, backend="warp")``: their physics stepped in this process, their
+    frames rendered in one MuJoCo Warp batch (``pip install "dcs-torchrl[warp]"``; docs/batched.md).
+
+    ``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` builds it for any
+    registered id (keywords as for ``gymnasium.make``). Sub-env ``i`` is env ``i`` of the batched env:
+    for ``reset(seed=s)`` its episodes are those of ``ParallelSuiteEnv(N, ...)`` seeded ``s``, worker ``i``
+    (TorchRL's chain of seeds). Autoreset is Gymnasium's default, ``NEXT_STEP``: the step after a
+    sub-env's episode ended resets it (its action unused, reward 0, the new episode's first frame).
+    ``reset(options={"reset_mask": mask})`` resets the marked sub-envs only; the others continue.
+
+    Args:
+        domain, task (str): a dm_control suite task.
+        num_envs (int): the sub-envs.
+
+    Keyword Args:
+        obs_type, dict_layout, **settings: as :class:`DistractingControlEnv` (``device`` is where Warp
+            renders; the arrays returned are NumPy's, on the host).
+
+    Examples:
+        >>> import gymnasium, dcs_torchrl.gym_env
+        >>> envs = gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=3,
+        ...                           vectorization_mode="vector_entry_point", height=32, width=32)
+        >>> obs, info = envs.reset(seed=0)
+        >>> obs.shape, envs.action_space.shape
+        ((3, 32, 32, 3), (3, 1))
+        >>> obs, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
+        >>> envs.close()
+    """
+
+    metadata = {"autoreset_mode": gymnasium.vector.AutoresetMode.NEXT_STEP}
+
+    def __init__(self, domain: str, task: str, num_envs: int = 1, *, obs_type: str = "pixels",
+                 dict_layout: str = "nested", registered_id: str | None = None, **settings):
+        if settings.get("backend", "warp") != "warp":
+            raise ValueError(
+                f"DistractingControlVectorEnv batches its envs through backend='warp', not {settings['backend']!r}: for "
+                "GL envs use gymnasium.make_vec(id, num_envs, vectorization_mode='async') (one process each)."
+            )
+        if settings.pop("render_mode", None) is not None:
+            raise ValueError("DistractingControlVectorEnv has no render mode: the frames are its observations.")
+        settings.pop("max_episode_steps", None)  # make_vec passes the spec's (none): episodes end as dm_control's
+        settings["backend"] = "warp"
+        seed = _checked_settings(domain, task, obs_type, dict_layout, registered_id, settings)
+        self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", num_envs=num_envs,
+                                    **settings)
+        self.num_envs = int(num_envs)
+        single = type("Single", (), {})()
+        _set_spaces(single, self.torchrl_env, obs_type, dict_layout)
+        self.obs_type, self.dict_layout = obs_type, dict_layout
+        self._state_keys, self._distraction_keys = single._state_keys, single._distraction_keys
+        self._action_dtype = single._action_dtype
+        self.single_observation_space, self.single_action_space = single.observation_space, single.action_space
+        self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, self.num_envs)
+        self._ended = np.zeros(self.num_envs, bool)
+        self._needs_reset = True
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Starts every sub-env's episode (or those of ``options["reset_mask"]``); ``seed`` (an int)
+        reseeds them first as :meth:`dcs_torchrl.batched.BatchedSuiteEnv.set_seed` does."""
+        self._check_open("reset")
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if options:
+            raise ValueError(f"reset takes only the option reset_mask, got {sorted(options)}.")
+        if seed is not None and not isinstance(seed, numbers.Integral):
+            raise ValueError(f"seed must be one integer (sub-env i gets the i-th seed of its chain), got {seed!r}.")
+        if seed is not None:
+            seed = _checked_seed(seed)
+            super().reset(seed=seed)
+            self.torchrl_env.set_seed(seed)
+        if mask is None:
+            td = self.torchrl_env.reset()
+            self._ended[:] = False
+        else:
+            mask = np.asarray(mask)
+            if mask.shape != (self.num_envs,) or mask.dtype != bool:
+                raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},), got {mask!r}.")
+            if self._needs_reset:
+                raise gymnasium.error.ResetNeeded("call reset() without reset_mask first: no sub-env has started.")
+            # TorchRL's partial reset returns the given entries of the sub-envs not reset: the last ones
+            td = self.torchrl_env.reset(self._last.clone().set("_reset", torch.from_numpy(mask).reshape(-1, 1)))
+            self._ended[mask] = False
+        self._needs_reset = False
+        self._last = td.exclude("_reset")
+        return _observation(self, td, td["pixels"].cpu().numpy()), {}
+
+    def step(self, actions):
+        """One agent step of every sub-env; a sub-env whose episode ended at the last step is reset instead."""
+        self._check_open("step")
+        if self._needs_reset:
+            raise gymnasium.error.ResetNeeded("call reset() before step().")
+        actions = np.asarray(actions)
+        if actions.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape} (the action space), got {actions.shape}.")
+        ended = self._ended.copy()
+        env = self.torchrl_env
+        if ended.any():  # NEXT_STEP autoreset: these start a new episode now
+            out = env.reset(TensorDict({"_reset": torch.from_numpy(ended).reshape(-1, 1)}, batch_size=[self.num_envs]))
+        if not ended.all():
+            td = TensorDict({"action": torch.as_tensor(actions, dtype=self._action_dtype)}, batch_size=[self.num_envs])
+            if ended.any():
+                td.set("_step", torch.from_numpy(~ended))
+            out = env.step(td)["next"]
+        else:  # every sub-env restarted: no step
+            out = out.set("reward", torch.zeros((self.num_envs, 1)))
+        terminated = out["terminated"].reshape(self.num_envs).cpu().numpy().copy()
+        truncated = out["truncated"].reshape(self.num_envs).cpu().numpy().copy()
+        rewards = out["reward"].reshape(self.num_envs).cpu().numpy().astype(np.float64)
+        terminated[ended] = truncated[ended] = False
+        rewards[ended] = 0.0
+        self._ended = terminated | truncated
+        self._last = out.select(*self._last.keys(True, True))
+        return _observation(self, out, out["pixels"].cpu().numpy()), rewards, terminated, truncated, {}
+
+    def close_extras(self, **kwargs):
+        self.torchrl_env.close(raise_if_closed=False)
+
+    def _check_open(self, call: str) -> None:
+        if self.closed:
+            raise gymnasium.error.ClosedEnvironmentError(f"{call}() after close(): make a new vector env.")
+
+
+def _checked_settings(domain: str, task: str, obs_type: str, dict_layout: str, registered_id: str | None,
+                      settings: dict) -> int | None:
+    """Refuses what the Gymnasium envs cannot take (naming the fix); pops and returns the seed."""
+    if registered_id is not None:
+        _check_id(registered_id, domain, task, settings.get("benchmark", "none"), settings.get("dynamic", False))
+    if obs_type not in OBS_TYPES:
+        raise ValueError(f"unknown obs_type {obs_type!r}; choose one of {list(OBS_TYPES)}.")
+    if dict_layout not in DICT_LAYOUTS:
+        raise ValueError(f"unknown dict_layout {dict_layout!r}; choose one of {list(DICT_LAYOUTS)}.")
+    if dict_layout != "nested" and obs_type != "dict":
+        raise ValueError(f"dict_layout={dict_layout!r} lays out a Dict observation: pass obs_type='dict' too.")
+    if "pixels_only" in settings:
+        raise ValueError(
+            "pixels_only is not a setting of the Gymnasium env: obs_type decides it; pass "
+            "obs_type='pixels' (the frame) or obs_type='dict' (the frame and the physics state)."
+        )
+    unknown = sorted(set(settings) - set(_MAKE_ENV_SETTINGS))
+    if unknown:
+        raise ValueError(
+            f"unknown env setting(s) {unknown}: choose among {list(_MAKE_ENV_SETTINGS)} (make_env's) "
+            "or obs_type, render_mode, dict_layout."
+        )
+    if settings.get("expose_distractions") and obs_type != "dict":
+        raise ValueError(
+            "expose_distractions=True adds the distraction state to a Dict observation: pass obs_type='dict' too."
+        )
+    seed = settings.pop("seed", None)
+    return None if seed is None else _checked_seed(seed)
+
+
+def _set_spaces(owner, env, obs_type: str, dict_layout: str) -> None:
+    """One env's action and observation spaces (of a batched TorchRL env: one sub-env's) on
+    ``owner``, with what :func:`_observation` needs to convert its observations."""
+    action_spec = env.action_spec[0] if env.batch_size else env.action_spec
+    observation_spec = env.observation_spec[0] if env.batch_size else env.observation_spec
+    owner.obs_type, owner.dict_layout = obs_type, dict_layout
+    owner._action_dtype = action_spec.dtype
+    owner._action_shape = tuple(action_spec.shape)
+    owner.action_space = _box(action_spec, np.float32)
+    pixels = spaces.Box(0, 255, tuple(observation_spec["pixels"].shape), np.uint8)
+    owner._state_keys, owner._distraction_keys = [], []
+    if obs_type == "pixels":
+        owner.observation_space = pixels
+        return
+    # the task's physics observations, in dm_control's order (before the distractions and the frame)
+    owner._state_keys = [k for k in observation_spec.keys(True, True)
+                         if k not in ("pixels", "masks") and not (isinstance(k, tuple) and k[0] == "distractions")]
+    size = sum(int(np.prod(observation_spec[k].shape)) for k in owner._state_keys)
+    observation = {"pixels": pixels, "state": spaces.Box(-np.inf, np.inf, (size,), np.float64)}
+    if "distractions" in observation_spec.keys():
+        distractions = observation_spec["distractions"]
+        owner._distraction_keys = list(distractions.keys())
+        boxes = {k: _box(distractions[k]) for k in owner._distraction_keys}
+        if dict_layout == "flat":
+            observation |= {f"distractions/{k}": box for k, box in boxes.items()}
+        else:
+            observation["distractions"] = spaces.Dict(boxes)
+    owner.observation_space = spaces.Dict(observation)
+
+
+def _observation(owner, td, frame: np.ndarray):
+    """The Gymnasium observation of ``td`` (one env's, or a batch's: each array then leads with the batch)."""
+    if owner.obs_type == "pixels":
+        return frame
+    lead = tuple(td.batch_size)
+    state = np.concatenate([td[k].cpu().numpy().reshape(*lead, -1) for k in owner._state_keys], axis=-1)
+    obs = {"pixels": frame, "state": state.astype(np.float64, copy=False)}
+    if owner._distraction_keys:
+        distractions = {k: td["distractions", k].cpu().numpy() for k in owner._distraction_keys}
+        if owner.dict_layout == "flat":
+            obs |= {f"distractions/{k}": value for k, value in distractions.items()}
+        else:
+            obs["distractions"] = distractions
+    return obs
 
 
 def _check_id(registered_id: str, domain: str, task: str, benchmark: str, dynamic: bool) -> None:

@@ -382,3 +382,48 @@ def test_a_recipe_collects_with_the_warp_backend_and_records_it(tmp_path):
     with pytest.raises(ValueError, match="collector.backend='vulkan': choose one of"):
         train(bad, agent_class("sac"), tmp_path / "bad")
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_gymnasium_vector_env_steps_the_batch_and_autoresets_at_the_next_step():
+    """make_vec(id, num_envs, vectorization_mode="vector_entry_point"): the batched env's frames and
+    rewards as NumPy arrays; the step after an episode's end starts the next (reward 0, no done flag,
+    the frame of the batched env's own reset); a reset_mask resets the marked sub-envs only."""
+    import gymnasium
+
+    import dcs_torchrl.gym_env  # noqa: F401  (registers the ids)
+
+    n, options = 2, dict(action_repeat=100, height=32, width=32, device=DEVICE)
+    envs = gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=n,
+                              vectorization_mode="vector_entry_point", **options)
+    env = make_env("cartpole", "swingup", benchmark="medium", dynamic=True, num_envs=n, backend="warp", **options)
+    actions = _actions(EPISODE + 2, n).float()
+    obs, _ = envs.reset(seed=7)
+    env.set_seed(7)
+    td = env.reset()
+    assert envs.observation_space.shape == (n, 32, 32, 3) and np.array_equal(obs, td["pixels"].cpu().numpy())
+    for t in range(EPISODE):
+        obs, rewards, terminated, truncated, _ = envs.step(actions[t].numpy())
+        td = env.step(td.set("action", actions[t].double()))["next"]
+        assert np.array_equal(obs, td["pixels"].cpu().numpy()), t
+        assert np.allclose(rewards, td["reward"].reshape(n).cpu().numpy())
+    assert truncated.all() and not terminated.any()  # the time limit
+    obs, rewards, terminated, truncated, _ = envs.step(actions[EPISODE].numpy())
+    td = env.reset()
+    assert np.array_equal(obs, td["pixels"].cpu().numpy()) and not rewards.any() and not (terminated | truncated).any()
+    obs, *_ = envs.step(actions[EPISODE + 1].numpy())
+    before = obs.copy()
+    obs, _ = envs.reset(options={"reset_mask": np.array([True, False])})
+    assert np.array_equal(obs[1], before[1]) and not np.array_equal(obs[0], before[0])
+    for _ in range(EPISODE - 1):  # sub-env 1 (one step into its episode) reaches its time limit before sub-env 0
+        obs, rewards, terminated, truncated, _ = envs.step(actions[0].numpy())
+    assert truncated.tolist() == [False, True]
+    last = obs.copy()
+    obs, rewards, terminated, truncated, _ = envs.step(actions[0].numpy())  # 1 restarts while 0 ends its episode
+    assert rewards[1] == 0 and rewards[0] > 0 and truncated.tolist() == [True, False] and not terminated.any()
+    assert not np.array_equal(obs[0], last[0]) and not np.array_equal(obs[1], last[1])
+    envs.close()
+    env.close()
+    with pytest.raises(gymnasium.error.ClosedEnvironmentError):
+        envs.step(actions[0].numpy())
+    with pytest.raises(ValueError, match="vectorization_mode='vector_entry_point'"):
+        gymnasium.make("dcs/cartpole-swingup-none-v0", backend="warp", num_envs=2)

@@ -3,7 +3,6 @@
     python benchmarks/memory.py [--soak-steps 20000] [--reset-every 25] [--domain cartpole --task swingup]
     python benchmarks/memory.py --batched 256 --domain cheetah --task run   # backend="warp" only
 
-
 1. a process holding all 60 embedded training videos (decoded at 256x256);
 2. resident memory added by each further env with dynamic backgrounds (frames shared);
 3. resident memory over ``--soak-steps`` agent steps of the hard dynamic benchmark with a
@@ -28,20 +27,20 @@ import dcs_torchrl as dcs  # noqa: E402
 from dcs_torchrl.videos import cache_info  # noqa: E402
 
 
-def rss_mb() -> float:
+def _status_mb(field: str) -> float:
     with open("/proc/self/status") as status:
         for line in status:
-            if line.startswith("VmRSS:"):
+            if line.startswith(f"{field}:"):
                 return int(line.split()[1]) / 1024
-    raise RuntimeError("no VmRSS in /proc/self/status (Linux only)")
+    raise RuntimeError(f"no {field} in /proc/self/status (Linux only)")
+
+
+def rss_mb() -> float:
+    return _status_mb("VmRSS")
 
 
 def peak_mb() -> float:
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024
-    raise RuntimeError("no VmHWM in /proc/self/status (Linux only)")
+    return _status_mb("VmHWM")
 
 
 def batched(args) -> None:

@@ -50,7 +50,8 @@ from dcs_torchrl import presets
 from dcs_torchrl._private_api import control_timestep
 from dcs_torchrl.envs import EnvOptions, make_env
 
-__all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "DistractingControlVectorEnv", "NAMESPACE", "OBS_TYPES", "env_id", "register_envs"]
+__all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "DistractingControlVectorEnv", "NAMESPACE", "OBS_TYPES", "env_id",
+           "register_envs"]
 
 #: The Gymnasium namespace of the suite's ids.
 NAMESPACE = "dcs"
@@ -325,18 +326,13 @@ class DistractingControlVectorEnv(gymnasium.vector.VectorEnv):
             )
         if settings.pop("render_mode", None) is not None:
             raise ValueError("DistractingControlVectorEnv has no render mode: the frames are its observations.")
-        settings.pop("max_episode_steps", None)  # make_vec passes the spec's (none): episodes end as dm_control's
         settings["backend"] = "warp"
         seed = _checked_settings(domain, task, obs_type, dict_layout, registered_id, settings)
         self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", num_envs=num_envs,
                                     **settings)
         self.num_envs = int(num_envs)
-        single = type("Single", (), {})()
-        _set_spaces(single, self.torchrl_env, obs_type, dict_layout)
-        self.obs_type, self.dict_layout = obs_type, dict_layout
-        self._state_keys, self._distraction_keys = single._state_keys, single._distraction_keys
-        self._action_dtype = single._action_dtype
-        self.single_observation_space, self.single_action_space = single.observation_space, single.action_space
+        _set_spaces(self, self.torchrl_env, obs_type, dict_layout)  # one sub-env's, then batched
+        self.single_observation_space, self.single_action_space = self.observation_space, self.action_space
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, self.num_envs)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, self.num_envs)
         self._ended = np.zeros(self.num_envs, bool)

@@ -202,7 +202,7 @@ class ParallelSuiteEnv(EnvBase):
             skipped[workers] = False
             for key in self.reward_keys:
                 out.get(key)[skipped] = 0
-        return out.to(self.device) if self.device != _BUFFERS else out
+        return out.to(self.device)  # no copy on the buffers' device
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         if kwargs:
@@ -210,7 +210,7 @@ class ParallelSuiteEnv(EnvBase):
         workers = _marked(tensordict, "_reset", self.num_workers)
         self._command(_RESET, workers)
         out = _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
-        return out.to(self.device) if self.device != _BUFFERS else out
+        return out.to(self.device)  # no copy on the buffers' device
 
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seeds worker 0 with ``seed`` and each next worker with what the previous one's

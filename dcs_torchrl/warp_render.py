@@ -264,13 +264,20 @@ class WarpRenderer:
             self._geom_label = wp.array(label, dtype=wp.uint8)
             self._alpha = wp.zeros((self.n, mjm.ngeom), dtype=float)
             self._sky = None
+            self._finish = _kernels(wp)
+            # Build this renderer's kernels now, in the thread that makes it: MuJoCo Warp specialises
+            # a kernel per render context at its first render, and renderers of one batch render in
+            # threads at once (BatchedSuiteEnv), where two first renders built together gave a few
+            # wrong pixels. A render of the zeroed worlds builds it; nothing of it is kept.
+            mjw.refit_bvh(self.model, self.data, self.context)
+            mjw.render(self.model, self.data, self.context)
+            wp.load_module(self._finish.module, device=self.device)
         self._mjm, self._own = mjm, None
         self._mjw = mjw
         # the colour (geom's or material's, as MuJoCo picks it) whose alpha says how much sky shows through
         self._geom_matid = np.asarray(mjm.geom_matid).copy()
         self._geom_rgba = np.asarray(mjm.geom_rgba).copy()
         self._uses_material = (self._geom_matid >= 0) & np.all(self._geom_rgba == (0.5, 0.5, 0.5, 1.0), axis=1)
-        self._finish = _kernels(wp)
         self.seconds = 0.0  #: time spent in :meth:`render`, for the benchmarks
         self._pixels_torch = wp.to_torch(self.pixels)
         self._labels_torch = wp.to_torch(self.labels)

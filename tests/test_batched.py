@@ -233,8 +233,12 @@ def test_a_clean_frame_is_the_gl_frame_within_a_few_grey_levels():
 def _red_sky_envs(n: int, ground_alpha: float) -> list:
     red = np.zeros((4, 32, 32, 3), np.uint8)
     red[..., 0] = 255
-    return [TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=8),
-                           Compose(BackgroundDistraction([red], ground_alpha=ground_alpha, seed=i))) for i in range(n)]
+    envs = []
+    for i in range(n):
+        base = DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=8)
+        base.set_seed(i)  # the same initial state in every call: frames of two calls are compared pixel by pixel
+        envs.append(TransformedEnv(base, Compose(BackgroundDistraction([red], ground_alpha=ground_alpha, seed=i))))
+    return envs
 
 
 def test_the_video_fills_the_sky_and_shows_through_the_floor_at_ground_alpha():
@@ -273,6 +277,31 @@ def test_colours_and_camera_change_the_frames_per_env():
     env = make_env("cartpole", "swingup", benchmark="medium", num_envs=3, backend="warp", height=32, width=32, seed=0)
     pixels = env.reset()["pixels"]
     assert not torch.equal(pixels[0], pixels[1]) and not torch.equal(pixels[1], pixels[2])
+    env.close()
+
+
+def test_each_renderer_builds_its_kernels_in_the_thread_that_makes_it(monkeypatch):
+    """MuJoCo Warp specialises a kernel per render context at its first render. The chunks of a batch
+    render in threads at once, and two first renders building their kernels together gave a few wrong
+    pixels (a fresh env's first frame, seen with the machine loaded): every renderer renders first in
+    the thread that builds the env, before any render thread runs."""
+    import threading
+
+    import mujoco_warp
+
+    first, real = {}, mujoco_warp.render
+
+    def render(m, d, rc):
+        first.setdefault(id(rc), threading.current_thread().name)
+        return real(m, d, rc)
+
+    monkeypatch.setattr(mujoco_warp, "render", render)
+    env = _warp(4)
+    assert len(env._chunks) == 4
+    env.set_seed(0)
+    td = env.reset()
+    env.step(td.set("action", _actions(1, 4)[0]))
+    assert len(first) == 4 and set(first.values()) == {threading.current_thread().name}, first
     env.close()
 
 

@@ -26,7 +26,8 @@ from dcs_torchrl.report.__main__ import main as report
 REPO = Path(__file__).resolve().parents[2]
 RUN = [sys.executable, str(REPO / "recipes" / "experiments" / "run.py"), "-m"]
 SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.eval_processes=2",
-          "experiment.train.0.evaluate=[{axis:camera,values:[0.0,1.0]}]"]
+          "experiment.train.0.evaluate=[{axis:camera,values:[0.0,1.0]}]", "budget.recipe.total_frames=200",
+          "budget.recipe.eval.episodes=1"]
 CARTPOLE = "SAC+RAD/cartpole-swingup/none/seed_0"
 BALL = "SAC+RAD/ball_in_cup-catch/none/seed_0"
 
@@ -94,8 +95,8 @@ def test_evaluation_only_runs_reuse_the_trained_checkpoint(robustness):
         assert len(evaluations) == 2 * 2  # camera at 0 and 1, static and dynamic
         for path in evaluations:
             result = json.loads(path.read_text())
-            assert result["experiment"] == "robustness" and result["steps"] == trained["steps"] == 400
-            assert result["train_env"] == trained["train_env"] and result["eval"]["episodes"] == 2
+            assert result["experiment"] == "robustness" and result["steps"] == trained["steps"] == 200
+            assert result["train_env"] == trained["train_env"] and result["eval"]["episodes"] == 1
             assert result["eval_env"]["dynamic"] == result["sweep"]["dynamic"]
             if result["sweep"]["value"] == 0:  # no distraction: the training's own final evaluation, episode by episode
                 assert result["eval"]["returns"] == trained["eval"]["returns"]

@@ -21,7 +21,7 @@ from dcs_torchrl.distractions import (  # noqa: E402
     ColorDistraction,
     DistractionTransform,
 )
-from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, resolve_settings  # noqa: E402
+from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings  # noqa: E402
 from dcs_torchrl.parallel import ParallelSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
 from dcs_torchrl.render import RenderPixels  # noqa: E402
@@ -32,6 +32,7 @@ __all__ = [
     "EnvOptions",
     "EnvSettings",
     "make_env",
+    "make_grouped_env",
     "ParallelSuiteEnv",
     "resolve_settings",
     "TASKS",

@@ -103,6 +103,9 @@ class _SkySink:
         self.rows = rows  # [faces, side, side, 3] of this world
 
     def upload_cube(self, tex_id: int, faces: list[np.ndarray], unchanging: bool = False) -> None:
+        if len(faces) == 1:  # one face on all six, in a batch whose other worlds show six: the same pixels
+            self.rows[...] = faces[0]
+            return
         if len(faces) != len(self.rows):
             raise RuntimeError(f"expected {len(self.rows)} sky face(s), got {len(faces)}")
         for row, face in zip(self.rows, faces):
@@ -149,7 +152,9 @@ class BatchedSuiteEnv(EnvBase):
 
     Args:
         envs (sequence of TransformedEnv): the N envs without a render, as ``make_env`` builds them
-            (a ``DMControlEnv(from_pixels=False)`` under the suite's distractions), one task.
+            (a ``DMControlEnv(from_pixels=False)`` under the suite's distractions), one task. Their
+            distraction settings may differ (:func:`dcs_torchrl.make_grouped_env`), but either all
+            show background videos, at one ``texture_size``, or none does.
 
     Keyword Args:
         height, width (int): the image size.
@@ -161,21 +166,29 @@ class BatchedSuiteEnv(EnvBase):
         render_chunks (int, optional): render the batch in this many parts, each while the next
             part's physics steps (``None``: :data:`RENDER_CHUNKS`, at most one per env). The pixels
             are the same for any value.
+        groups (sequence of int, optional): the sizes of consecutive groups of ``envs`` that
+            :meth:`set_seed` seeds apart, each as a batch of its own (``None``: one group). So each
+            group's envs run the episodes a batch of that group's envs alone runs.
     """
 
     def __init__(self, envs: Sequence[TransformedEnv], *, height: int = 84, width: int = 84, camera_id: int = 0,
                  device="cpu", pixels_only: bool = True, masks: bool = False, render_profile: str = "default",
-                 render_chunks: int | None = None):
+                 render_chunks: int | None = None, groups: Sequence[int] | None = None):
         if render_profile not in WARP_PROFILES:
             raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
                              f"{sorted(WARP_PROFILES)}.")
         envs = list(envs)
         if not envs:
             raise ValueError("BatchedSuiteEnv needs at least one env (num_envs >= 1).")
+        groups = [len(envs)] if groups is None else [int(size) for size in groups]
+        if sum(groups) != len(envs) or min(groups) < 1:
+            raise ValueError(f"groups must be positive sizes summing to the {len(envs)} envs, got {groups}.")
+        self._groups = groups
         device = torch.device(device)
         super().__init__(batch_size=[len(envs)], device=device)
         self.num_envs = n = len(envs)
         self._worlds = [_World(env) for env in envs]
+        videos = self._video_skies()
         first = self._worlds[0]
         self._state_keys = list(first.base.observation_spec.keys(True, True))
         self._distraction_keys = [t.out_keys[0] for t in first.distractions if t.expose]
@@ -189,17 +202,14 @@ class BatchedSuiteEnv(EnvBase):
         self.renderers = [WarpRenderer(model, len(chunk), height, width, camera_id, device,
                                        agent_geoms=agent if masks else None, floor_geoms=floor,
                                        **WARP_PROFILES[render_profile]) for chunk in self._chunks]
-        background = first.background
-        if background is not None and background.active:  # each world's own sky, as its distraction writes it
-            background._bind()
-            side = background.texture_size
-            sky = lambda k: (k, 1 if background._sky_faces is None else 6, side, side, 3)  # noqa: E731
+        if videos is not None:  # each world's own sky, as its distraction writes it
+            sky = lambda k: (k, *videos)  # noqa: E731
         else:  # every world shows the model's sky
             clean = self._clean_sky(model, height, camera_id)
             sky = lambda k: (1, *clean.shape)  # noqa: E731
         self._scenes = [renderer.state(sky(len(chunk))) for renderer, chunk in zip(self.renderers, self._chunks)]
         self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
-        if background is not None and background.active:
+        if videos is not None:
             self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where]
         else:
             self._sinks = None
@@ -232,6 +242,25 @@ class BatchedSuiteEnv(EnvBase):
         self.action_spec = env.action_spec.expand(n, *env.action_spec.shape).to(device)
         self.reward_spec = env.reward_spec.expand(n, *env.reward_spec.shape).to(device)
         self.done_spec = env.full_done_spec.expand(n).to(device)
+
+    def _video_skies(self) -> tuple[int, int, int, int] | None:
+        """``(faces, side, side, 3)`` of every world's sky where the worlds show videos (six faces where
+        any blends them onto the model's sky, else the one face of a frame), ``None`` where none does."""
+        backgrounds = [world.background for world in self._worlds]
+        shows = [b is not None and b.active for b in backgrounds]
+        if not any(shows):
+            return None
+        if not all(shows):
+            raise ValueError("the envs of one batch must all show background videos or none of them: build "
+                             "the settings with videos and those without in separate batches.")
+        sides = sorted({b.texture_size for b in backgrounds})
+        if len(sides) > 1:
+            raise ValueError(f"the envs of one batch show videos at texture_size {sides}: give them one "
+                             "texture_size, or build them in separate batches.")
+        for b in backgrounds:
+            b._bind()
+        faces = 1 if all(b._sky_faces is None for b in backgrounds) else 6
+        return faces, sides[0], sides[0], 3
 
     @staticmethod
     def _clean_sky(model, height: int, camera_id: int) -> np.ndarray:
@@ -354,10 +383,14 @@ class BatchedSuiteEnv(EnvBase):
 
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seeds env 0 with ``seed`` and each next env with what the previous one's ``set_seed``
-        returns (TorchRL's batched envs); returns the last env's return."""
-        for world in self._worlds:
-            seed = world.env.set_seed(seed, static_seed=static_seed)
-        return seed
+        returns (TorchRL's batched envs); with ``groups``, each group so from ``seed``. Returns the
+        last env's return."""
+        worlds = iter(self._worlds)
+        for size in self._groups:
+            chained = seed
+            for _ in range(size):
+                chained = next(worlds).env.set_seed(chained, static_seed=static_seed)
+        return chained
 
     def _set_seed(self, seed: int | None) -> None:  # set_seed is overridden: never called
         raise NotImplementedError

@@ -5,6 +5,7 @@ import dataclasses
 import inspect
 import os
 import textwrap
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import torch
@@ -90,6 +91,12 @@ class EnvOptions:
 #: The scene options of :class:`EnvOptions` (what :func:`resolve_settings` resolves, a recipe's
 #: ``env`` / ``eval_env`` config holds and :class:`EnvSettings` records, after the task), in order.
 SCENE_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions) if f.metadata["scene"])
+
+
+def scene_options(settings) -> dict:
+    """make_env's scene keyword arguments (:data:`SCENE_OPTIONS`) of resolved ``settings``
+    (an :class:`EnvSettings`)."""
+    return {k: getattr(settings, k) for k in SCENE_OPTIONS}
 
 
 def _as_dict(self) -> dict:
@@ -203,15 +210,8 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
         raise TypeError(f"make_env() got unknown keyword argument(s) {unknown}: choose among "
                         f"{[f.name for f in dataclasses.fields(EnvOptions)]} (dcs_torchrl.EnvOptions).")
     o = EnvOptions(**options)
-    if o.render_profile not in PROFILES:
-        raise ValueError(f"unknown render_profile {o.render_profile!r}; choose one of {sorted(PROFILES)}.")
-    if o.seed is not None and (isinstance(o.seed, bool) or not isinstance(o.seed, int) or not 0 <= o.seed < 2**32):
-        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {o.seed!r}.")
+    _check_options(o)
     s = resolve_settings(domain, task, **{k: v for k, v in options.items() if k in SCENE_OPTIONS})
-    if o.backend not in BACKENDS:
-        raise ValueError(f"unknown backend {o.backend!r}; choose one of {list(BACKENDS)}.")
-    if o.num_envs is not None and (isinstance(o.num_envs, bool) or not isinstance(o.num_envs, int) or o.num_envs < 1):
-        raise ValueError(f"num_envs must be a positive integer (or None), got {o.num_envs!r}.")
     if o.backend == "gl":
         if o.num_envs is not None:
             raise ValueError(
@@ -221,27 +221,88 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
         if o.masks:
             raise ValueError("masks=True needs backend='warp' (its render gives the segmentation at no second "
                              "render); the GL backend has no masks.")
-    expose = bool(o.expose_distractions)
     if o.backend == "warp":
-        from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv, compact_skies
-        from dcs_torchrl.warp_render import import_warp
-
-        import_warp()  # the extra's error first
-        if o.render_profile not in WARP_PROFILES:
-            raise ValueError(f"unknown render_profile {o.render_profile!r} for backend='warp'; choose one of "
-                             f"{sorted(WARP_PROFILES)}.")
-        worlds = [_distracted_env(s, expose)]
-        with compact_skies(s):  # the others' skies are never rendered: their models hold a small one
-            worlds += [_distracted_env(s, expose) for _ in range(1, 1 if o.num_envs is None else o.num_envs)]
-        env = BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=s.camera_id,
-                              device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
-                              masks=o.masks, render_profile=o.render_profile)
+        env = _warp_env([(s, 1 if o.num_envs is None else o.num_envs)], o)
     else:
         render = RenderPixels(o.height, o.width, s.camera_id, profile=o.render_profile)
-        env = _distracted_env(s, expose, o.device, render, o.pixels_only)
+        env = _distracted_env(s, bool(o.expose_distractions), o.device, render, o.pixels_only)
     if o.seed is not None:
         env.set_seed(o.seed)
     return env
+
+
+def make_grouped_env(domain: str, task: str, groups: Sequence[tuple[Mapping, int]], **options) -> EnvBase:
+    """One batched env (``backend="warp"``) holding several settings' envs: ``groups`` is a sequence of
+    ``(settings, num_envs)``, ``settings`` make_env's scene settings (``{"camera_scale": 0.4}``, ``{}``:
+    the preset's), ``options`` make_env's others (``height``, ``device``, ``seed``, ...).
+
+    The envs lie group after group (batch size ``[sum of num_envs]``); ``set_seed`` seeds each group
+    from the same seed, as a batch of its own, so each group runs the episodes and distraction draws of
+    ``make_env(domain, task, **settings, num_envs=num_envs, backend="warp")`` seeded alike, with the
+    same pixels. What one render of the batch cannot mix is refused: groups that show background
+    videos beside groups that show none (build them apart), or videos at two ``texture_size``.
+
+    Examples:
+        >>> import dcs_torchrl as dcs
+        >>> env = dcs.make_grouped_env("cartpole", "swingup", [({"camera_scale": 0.2}, 2), ({"color_scale": 0.5}, 3)],
+        ...                            height=32, width=32, seed=0)
+        >>> env.rollout(2)["next", "pixels"].shape
+        torch.Size([5, 2, 32, 32, 3])
+    """
+    given = sorted(set(options) & (set(SCENE_OPTIONS) | {"backend", "num_envs"}))
+    if given:
+        raise TypeError(f"make_grouped_env() got {given}: scene settings go in each group's settings, and the "
+                        "backend ('warp') and the envs per group are the groups' (settings, num_envs).")
+    o = EnvOptions(**options, backend="warp")
+    _check_options(o)
+    resolved = []
+    for group in groups:
+        if not (isinstance(group, tuple) and len(group) == 2 and isinstance(group[0], Mapping)):
+            raise TypeError(f"each group is a (settings dict, num_envs) pair, got {group!r}.")
+        settings, count = group
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"each group's num_envs must be a positive integer, got {count!r}.")
+        resolved.append((resolve_settings(domain, task, **settings), count))
+    if not resolved:
+        raise ValueError("make_grouped_env needs at least one (settings, num_envs) group.")
+    if len({s.camera_id for s, _ in resolved}) > 1:
+        raise ValueError("the groups render different cameras (camera_id): one batch renders one camera; "
+                         "build them in separate batches.")
+    env = _warp_env(resolved, o)
+    if o.seed is not None:
+        env.set_seed(o.seed)
+    return env
+
+
+def _check_options(o: EnvOptions) -> None:
+    if o.render_profile not in PROFILES:
+        raise ValueError(f"unknown render_profile {o.render_profile!r}; choose one of {sorted(PROFILES)}.")
+    if o.seed is not None and (isinstance(o.seed, bool) or not isinstance(o.seed, int) or not 0 <= o.seed < 2**32):
+        raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {o.seed!r}.")
+    if o.backend not in BACKENDS:
+        raise ValueError(f"unknown backend {o.backend!r}; choose one of {list(BACKENDS)}.")
+    if o.num_envs is not None and (isinstance(o.num_envs, bool) or not isinstance(o.num_envs, int) or o.num_envs < 1):
+        raise ValueError(f"num_envs must be a positive integer (or None), got {o.num_envs!r}.")
+
+
+def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
+    """The :class:`~dcs_torchrl.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
+    from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv, compact_skies
+    from dcs_torchrl.warp_render import import_warp
+
+    import_warp()  # the extra's error first
+    if o.render_profile not in WARP_PROFILES:
+        raise ValueError(f"unknown render_profile {o.render_profile!r} for backend='warp'; choose one of "
+                         f"{sorted(WARP_PROFILES)}.")
+    expose = bool(o.expose_distractions)
+    first = groups[0][0]
+    worlds = [_distracted_env(first, expose)]  # the batch renders from its model
+    for s, count in groups:
+        with compact_skies(s):  # the others' skies are never rendered: their models hold a small one
+            worlds += [_distracted_env(s, expose) for _ in range(count - (s is first))]
+    return BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=first.camera_id,
+                           device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
+                           masks=o.masks, render_profile=o.render_profile, groups=[count for _, count in groups])
 
 
 def _keyword_docs() -> str:

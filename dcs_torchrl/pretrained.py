@@ -211,6 +211,30 @@ class Pretrained:
         finally:
             close_env(env)
 
+    def evaluate_each(self, settings: Sequence[Mapping], episodes: int) -> list:
+        """:meth:`evaluate` with ``backend="warp"`` under each of several make_env ``settings``, all
+        at once: one batched env holding ``episodes`` envs per setting, each setting's envs seeded
+        as its own batch, and the policy given each setting's observations apart, as a batch of
+        their own. So each setting's returns are those of ``evaluate(episodes, backend="warp",
+        **setting)`` (``tests/test_batched.py``). The settings must all show background videos or
+        none (:func:`dcs_torchrl.make_grouped_env`; :func:`evaluate_settings` groups them so).
+        Returns an :class:`~dcs_torchrl.evaluation.EvalResult` per setting, in order."""
+        from dcs_torchrl.evaluation import EvalResult, evaluate
+        from dcs_torchrl.training.envs import close_env, grouped_pixel_env, pixel_options
+
+        cfg = self._cfg
+        if not settings:
+            return []
+        groups = [(agent_env_settings(cfg, s), episodes) for s in settings]
+        env = grouped_pixel_env(groups, device=cfg.device, **pixel_options(cfg.pixels))
+        try:
+            result = evaluate(env, _per_group(self.policy, [episodes] * len(groups)), episodes * len(groups),
+                              seed=self.eval_seed)
+        finally:
+            close_env(env)
+        returns = result.returns
+        return [EvalResult(returns[k * episodes:(k + 1) * episodes]) for k in range(len(groups))]
+
     def make_env(self, *, seed: int | None = None, render_profile: str | None = None, **settings):
         """A suite env on the agent's task with its pixel handling; ``settings`` are make_env's
         distraction settings (``benchmark``, ``dynamic``, ``camera_scale``, ``color_scale``,
@@ -221,6 +245,21 @@ class Pretrained:
         cfg = self._cfg
         pixels = pixel_options(cfg.pixels) | ({} if render_profile is None else {"render_profile": render_profile})
         return pixel_env(agent_env_settings(cfg, settings), seed=seed, **pixels)
+
+
+def _per_group(policy, sizes: list[int]):
+    """``policy`` acting on each group of consecutive rows of a batch apart (a group's actions are
+    then those of a batch of that group alone: a batched forward's rounding can depend on the
+    batch it runs in)."""
+    import torch
+
+    if len(sizes) == 1:
+        return policy
+
+    def act(td):
+        return torch.cat([policy(part) for part in td.split(sizes, 0)], 0)
+
+    return act
 
 
 def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False) -> Pretrained:
@@ -243,6 +282,10 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
     return Pretrained(acting_on(built.policy, device), results, cfg)
 
 
+#: The most envs :func:`evaluate_settings` puts in one batched env with ``backend="warp"``.
+WARP_BATCH_ENVS = 128
+
+
 def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
                       processes: int = 1, workers: int = 1, device: str = "cpu", final: bool = False,
                       render_devices: Sequence[int | str] | None = None,
@@ -263,15 +306,19 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
         agent: a finished run, an exported agent or a shipped agent's name.
         settings: per key, make_env settings over the training env's (``{}``: the training env).
         episodes: episodes per setting.
-        processes: settings evaluated at once.
+        processes: settings (with ``backend="warp"``: batches of settings) evaluated at once.
         workers: :meth:`Pretrained.evaluate`'s env workers per setting (1: one env).
         device, final: as :func:`load_pretrained`.
         render_devices: the GPU each process renders on, process ``i`` on
             ``render_devices[i % len]``: EGL device indices or CUDA devices (``"cuda:1"``), as
             :class:`~dcs_torchrl.ParallelSuiteEnv`'s, checked before anything starts; ``None``
             (default): this process's device. A process's env workers render on its device.
-        backend: ``"gl"``, or ``"warp"``: each setting's episodes all at once, in one batched env
-            (:meth:`Pretrained.evaluate`'s ``backend``).
+        backend: ``"gl"``, or ``"warp"``: several settings' episodes all at once, in one batched
+            env (:meth:`Pretrained.evaluate_each`: each setting's returns are those of
+            :meth:`Pretrained.evaluate` with ``backend="warp"``), in batches of at most
+            :data:`WARP_BATCH_ENVS` envs (or one setting's episodes), settings that show videos
+            apart from those that show none, about as many envs to each process. ``seconds``
+            is then its batch's wall time shared among the batch's settings.
     """
     from dcs_torchrl.egl_devices import process_render_device, render_device_indices
 
@@ -280,20 +327,45 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
     devices = render_device_indices(render_devices)
     if devices is not None and set(devices) == {process_render_device()}:
         devices = None  # all on this process's device: nothing to spawn for
-    if devices is None and (processes == 1 or len(settings) < 2):
+    if backend == "warp":
+        batches = _warp_batches(_results(agent_directory(agent))["config"], settings, episodes, processes)
+    else:
+        batches = [[key] for key in settings]
+    if devices is None and (processes == 1 or len(batches) < 2):
         loaded = load_pretrained(agent, device, final=final) if settings else None
-        for key, overrides in settings.items():
-            yield key, *_timed_evaluation(loaded, overrides, episodes, workers, backend)
+        for batch in batches:
+            results = _timed_evaluation(loaded, [settings[key] for key in batch], episodes, workers, backend)
+            yield from ((key, *result) for key, result in zip(batch, results))
         return
-    yield from _evaluate_in_processes(agent, settings, episodes, min(processes, max(1, len(settings))), workers,
+    yield from _evaluate_in_processes(agent, settings, batches, episodes, min(processes, len(batches)), workers,
                                       device, final, devices, backend)
 
 
-def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: int, processes: int, workers: int,
-                           device: str, final: bool, devices: list[int] | None, backend: str = "gl"):
+def _warp_batches(config: Mapping, settings: Mapping[Hashable, dict], episodes: int,
+                  processes: int) -> list[list[Hashable]]:
+    """The keys of ``settings`` in batches for one batched env each (:func:`evaluate_settings`),
+    largest first: those that one render cannot mix apart (videos or none, texture size, camera),
+    each batch at most the envs of all settings shared among the processes, of
+    :data:`WARP_BATCH_ENVS` or of one setting."""
+    from dcs_torchrl.results import shows_videos
+
+    kinds: dict[tuple, list[Hashable]] = {}
+    for key, overrides in settings.items():
+        env = agent_env_settings(config, overrides)
+        kind = (shows_videos(env.as_dict()), env.texture_size if shows_videos(env.as_dict()) else None, env.camera_id)
+        kinds.setdefault(kind, []).append(key)
+    share = -(-len(settings) * episodes // max(1, processes))
+    per = max(1, min(WARP_BATCH_ENVS, share) // episodes)
+    batches = [keys[i:i + per] for keys in kinds.values() for i in range(0, len(keys), per)]
+    return sorted(batches, key=len, reverse=True)
+
+
+def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], batches: list[list[Hashable]], episodes: int,
+                           processes: int, workers: int, device: str, final: bool, devices: list[int] | None,
+                           backend: str = "gl"):
     """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
-    spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a setting whenever one of its
-    processes is free."""
+    spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a batch of settings whenever one of
+    its processes is free."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from contextlib import ExitStack
 
@@ -302,13 +374,14 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
 
     threads = max(1, (os.cpu_count() or 1) // processes)
     share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
-    todo = iter(settings.items())
+    todo = iter(batches)
     running = {}
     with ExitStack() as stack:
         def feed(pool):
-            item = next(todo, None)
-            if item is not None:
-                running[pool.submit(_evaluate_in_worker, item[1], episodes, workers, backend)] = item[0], pool
+            batch = next(todo, None)
+            if batch is not None:
+                overrides = [settings[key] for key in batch]
+                running[pool.submit(_evaluate_in_worker, overrides, episodes, workers, backend)] = batch, pool
 
         for render, count in share.items():
             pool = stack.enter_context(SpawnedPool(
@@ -319,10 +392,10 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], episodes: i
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
-                key, pool = running.pop(future)
-                result = future.result()
+                batch, pool = running.pop(future)
+                results = future.result()
                 feed(pool)
-                yield key, *result
+                yield from ((key, *result) for key, result in zip(batch, results))
 
 
 _WORKER_AGENT = None
@@ -338,15 +411,20 @@ def _start_worker(agent: str, device: str, final: bool, render: int | None) -> N
     _WORKER_AGENT = load_pretrained(agent, device, final=final)
 
 
-def _timed_evaluation(agent: Pretrained, overrides: dict, episodes: int, workers: int,
-                      backend: str = "gl") -> tuple[dict, float]:
+def _timed_evaluation(agent: Pretrained, batch: list[dict], episodes: int, workers: int,
+                      backend: str = "gl") -> list[tuple[dict, float]]:
+    """Each setting of ``batch`` evaluated (``backend="warp"``: all at once), with its share of the seconds."""
     start = time.time()
-    result = agent.evaluate(episodes, workers=workers, backend=backend, **overrides).to_dict()
-    return result, time.time() - start
+    if backend == "warp":
+        results = agent.evaluate_each(batch, episodes)
+    else:
+        results = [agent.evaluate(episodes, workers=workers, backend=backend, **overrides) for overrides in batch]
+    seconds = (time.time() - start) / len(batch)
+    return [(result.to_dict(), seconds) for result in results]
 
 
-def _evaluate_in_worker(overrides: dict, episodes: int, workers: int, backend: str = "gl") -> tuple[dict, float]:
-    return _timed_evaluation(_WORKER_AGENT, overrides, episodes, workers, backend)
+def _evaluate_in_worker(batch: list[dict], episodes: int, workers: int, backend: str = "gl") -> list[tuple[dict, float]]:
+    return _timed_evaluation(_WORKER_AGENT, batch, episodes, workers, backend)
 
 
 def main(argv=None) -> None:

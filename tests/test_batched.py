@@ -456,3 +456,85 @@ def test_the_gymnasium_vector_env_steps_the_batch_and_autoresets_at_the_next_ste
         envs.step(actions[0].numpy())
     with pytest.raises(ValueError, match="vectorization_mode='vector_entry_point'"):
         gymnasium.make("dcs/cartpole-swingup-none-v0", backend="warp", num_envs=2)
+
+
+def _run(env, seed: int, actions: torch.Tensor) -> list:
+    """Every step's output of ``env`` (seeded, reset once) under ``actions``, cloned, on the CPU."""
+    env.set_seed(seed)
+    td = env.reset()
+    out = [td.exclude("action").clone().cpu()]
+    for action in actions:
+        td = env.step(td.set("action", action.to(env.device)))["next"]
+        out.append(td.clone().cpu())
+    return out
+
+
+@pytest.mark.parametrize("groups", [
+    [({"camera_scale": 0.3, "num_videos": 0}, 2), ({"benchmark": "none"}, 1)],
+    [({}, 2), ({"background_blend": 0.5}, 2)],  # one face of video beside six faces blended onto the sky
+], ids=["no-videos", "videos-blended-and-not"])
+def test_each_group_of_a_grouped_env_runs_the_episodes_and_pixels_of_its_own_batch(groups):
+    base = {k: v for k, v in SETTINGS.items() if k not in ("height", "width", "pixels_only", "expose_distractions")}
+    options = dict(height=32, width=32, device=DEVICE, pixels_only=False, expose_distractions=True)
+    grouped = dcs.make_grouped_env("cartpole", "swingup", [({**base, **s}, n) for s, n in groups], **options)
+    n = sum(count for _, count in groups)
+    assert grouped.batch_size == (n,)
+    actions = _actions(EPISODE + 2, n)
+    together = _run(grouped, 11, actions)
+    grouped.close()
+    start = 0
+    for settings, count in groups:
+        alone_env = make_env("cartpole", "swingup", num_envs=count, backend="warp", **{**base, **settings}, **options)
+        alone = _run(alone_env, 11, actions[:, start:start + count])
+        alone_env.close()
+        for t, (mine, theirs) in enumerate(zip(together, alone)):
+            part = mine[start:start + count]
+            assert set(part.keys(True, True)) == set(theirs.keys(True, True))
+            for key in theirs.keys(True, True):
+                assert torch.equal(part[key], theirs[key]), f"group at {start}, step {t}: {key} differs"
+        start += count
+
+
+def test_a_grouped_env_refuses_what_one_render_cannot_mix():
+    with pytest.raises(ValueError, match="all show background videos or none"):
+        dcs.make_grouped_env("cartpole", "swingup", [({"benchmark": "medium"}, 1), ({"benchmark": "none"}, 1)])
+    with pytest.raises(ValueError, match="texture_size"):
+        dcs.make_grouped_env("cartpole", "swingup", [({"benchmark": "medium", "texture_size": 128}, 1),
+                                                         ({"benchmark": "medium", "texture_size": 64}, 1)])
+    with pytest.raises(TypeError, match="scene settings go in each group's settings"):
+        dcs.make_grouped_env("cartpole", "swingup", [({}, 1)], camera_scale=0.2)
+    with pytest.raises(TypeError, match="scene settings go in each group's settings"):
+        dcs.make_grouped_env("cartpole", "swingup", [({}, 1)], num_envs=2)
+    with pytest.raises(TypeError, match=r"\(settings dict, num_envs\) pair"):
+        dcs.make_grouped_env("cartpole", "swingup", [{"camera_scale": 0.2}])
+    with pytest.raises(ValueError, match="positive integer"):
+        dcs.make_grouped_env("cartpole", "swingup", [({}, 0)])
+    with pytest.raises(ValueError, match="at least one"):
+        dcs.make_grouped_env("cartpole", "swingup", [])
+
+
+def test_evaluate_each_gives_each_setting_the_returns_of_its_own_warp_evaluation():
+    from dcs_torchrl.pretrained import load_pretrained
+
+    agent = load_pretrained(AGENT)
+    settings = [{"color_scale": 0.3}, {"camera_scale": 0.2, "dynamic": True}]
+    together = agent.evaluate_each(settings, 2)
+    assert [r.returns for r in together] == [agent.evaluate(2, backend="warp", **s).returns for s in settings]
+    assert together[0].returns != together[1].returns
+    assert agent.evaluate_each([], 2) == []
+
+
+def test_warp_batches_keep_videos_apart_and_share_the_envs_among_the_processes():
+    from dcs_torchrl.pretrained import WARP_BATCH_ENVS, _results, _warp_batches, agent_directory
+
+    config = _results(agent_directory(AGENT))["config"]
+    settings = {f"color{i}": {"color_scale": 0.1 * i} for i in range(6)}
+    settings |= {f"video{i}": {"num_videos": 4, "background_blend": 0.2 * (i + 1)} for i in range(3)}
+    batches = _warp_batches(config, settings, 10, processes=2)  # 90 envs: at most 45 a batch
+    assert sorted(map(sorted, batches)) == sorted(map(sorted, [
+        ["color0", "color1", "color2", "color3"], ["color4", "color5"], ["video0", "video1", "video2"]]))
+    assert [len(b) for b in batches] == sorted((len(b) for b in batches), reverse=True)  # largest first
+    assert _warp_batches(config, settings, 10, processes=1)[0] == [f"color{i}" for i in range(6)]
+    many = {f"c{i}": {"color_scale": 0.01 * i} for i in range(30)}
+    assert max(len(b) for b in _warp_batches(config, many, 10, processes=1)) == WARP_BATCH_ENVS // 10
+    assert _warp_batches(config, {"one": {}}, 500, processes=4) == [["one"]]  # one setting's episodes: one batch

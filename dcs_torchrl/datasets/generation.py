@@ -25,7 +25,7 @@ from torchrl.envs.utils import step_mdp
 
 from dcs_torchrl.datasets import layout, metadata
 from dcs_torchrl.datasets.policies import BehaviourPolicy, Mixing, load_behaviour
-from dcs_torchrl.envs import SCENE_OPTIONS, make_env, resolve_settings
+from dcs_torchrl.envs import make_env, resolve_settings, scene_options
 
 __all__ = ["generate"]
 
@@ -50,7 +50,7 @@ def _pixels(behaviours: Sequence[BehaviourPolicy], image_size: int | None, rende
 
 
 def _make_env(settings, pixels: dict, max_steps: int | None):
-    options = {k: getattr(settings, k) for k in SCENE_OPTIONS}
+    options = scene_options(settings)
     extra, masks = {}, pixels["masks"]
     if masks:
         if "masks" not in inspect.signature(make_env).parameters:

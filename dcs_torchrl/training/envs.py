@@ -25,7 +25,7 @@ from __future__ import annotations
 import functools
 import logging
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import torch
@@ -33,11 +33,12 @@ from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import CatFrames, Compose, EnvBase, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
 from dcs_torchrl.egl_devices import egl_device_of_cuda, process_render_device, render_device_index
-from dcs_torchrl.envs import SCENE_OPTIONS, EnvOptions, EnvSettings, make_env, resolve_settings
+from dcs_torchrl.envs import (SCENE_OPTIONS, EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings,
+                              scene_options)
 from dcs_torchrl.parallel import ParallelSuiteEnv
 
-__all__ = ["batched_pixel_env", "close_env", "config_settings", "pixel_env", "pixel_env_factory", "pixel_options",
-           "render_device", "train_eval_settings"]
+__all__ = ["batched_pixel_env", "close_env", "config_settings", "grouped_pixel_env", "pixel_env", "pixel_env_factory",
+           "pixel_options", "render_device", "train_eval_settings"]
 
 log = logging.getLogger(__name__)
 
@@ -97,8 +98,24 @@ def pixel_env(settings: EnvSettings, *, frame_stack: int, image_size: int, rende
     env = make_env(
         settings.domain, settings.task, seed=seed, height=image_size, width=image_size, render_profile=render_profile,
         backend=backend, num_envs=num_envs, **({} if device is None else {"device": device}),
-        **{k: getattr(settings, k) for k in SCENE_OPTIONS},
+        **scene_options(settings),
     )
+    return _with_pixel_handling(env, frame_stack)
+
+
+def grouped_pixel_env(groups: Sequence[tuple[EnvSettings, int]], *, frame_stack: int, image_size: int,
+                      render_profile: str, device=None) -> TransformedEnv:
+    """:func:`pixel_env` of several settings of one task in one batched env (``backend="warp"``):
+    ``groups`` is ``(settings, num_envs)`` pairs, each group seeded as a batch of its own
+    (:func:`dcs_torchrl.make_grouped_env`)."""
+    first = groups[0][0]
+    env = make_grouped_env(first.domain, first.task, [(scene_options(s), n) for s, n in groups], height=image_size,
+                           width=image_size, render_profile=render_profile,
+                           **({} if device is None else {"device": device}))
+    return _with_pixel_handling(env, frame_stack)
+
+
+def _with_pixel_handling(env, frame_stack: int) -> TransformedEnv:
     pixels = Compose(
         PermuteTransform((-1, -3, -2), in_keys=["pixels"]),
         CatFrames(frame_stack, dim=-3, in_keys=["pixels"]),

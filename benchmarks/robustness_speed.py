@@ -8,7 +8,7 @@ Sweeps (the shipped SAC+RAD cartpole swingup agent):
 - quick: the command's defaults, 6 intensities x 3 axes, static, 10 episodes per point;
 - full: the paper's experiment 1 for one agent, 11 intensities x 3 axes x static and dynamic,
   20 episodes per point.
-``--backends gl warp`` times each sweep with the command's ``--backend`` of each (warp: a point's
+``--backends gl warp`` times each sweep with the command's ``--backend`` of each (warp: several points'
 episodes at once, in one batched env per worker). Each run starts from an empty output directory (a temporary one, or below --keep, which keeps
 the results: the full sweep is the shipped agent's experiment-1 data). Time the machine idle:
 nothing else running. Prints the CPU model beside the wall times.

@@ -295,9 +295,9 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     rendering on ``render_devices[i % len]`` (EGL indices or ``"cuda:N"``; ``None``: this
     process's device; :func:`dcs_torchrl.pretrained.evaluate_settings`). The background
     axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
-    folder that holds fewer). ``backend="warp"``: each point's episodes all at once, in one batched
-    env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate`); its points are
-    stored apart from GL's.
+    folder that holds fewer). ``backend="warp"``: several points' episodes all at once, in one batched
+    env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate_each`: each point's
+    returns those of its own ``evaluate(backend="warp")``); its points are stored apart from GL's.
 
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
@@ -417,8 +417,8 @@ def main(argv=None) -> dict[str, Path]:
                         help="the GPUs the workers render on, worker i on the (i mod n)-th: EGL device indices or "
                              "cuda:N (default: this process's, MUJOCO_EGL_DEVICE_ID or the first)")
     parser.add_argument("--backend", default="gl", choices=["gl", "warp"],
-                        help="gl: one env per point (the reference); warp: a point's episodes at once, in one batched "
-                             "env rendered by MuJoCo Warp (pip install \"dcs-torchrl[warp]\")")
+                        help="gl: one env per point (the reference); warp: several points' episodes at once, in one "
+                             "batched env rendered by MuJoCo Warp (pip install \"dcs-torchrl[warp]\")")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
     parser.add_argument("--no-progress", action="store_true")

@@ -352,7 +352,8 @@ def _warp_batches(config: Mapping, settings: Mapping[Hashable, dict], episodes: 
     kinds: dict[tuple, list[Hashable]] = {}
     for key, overrides in settings.items():
         env = agent_env_settings(config, overrides)
-        kind = (shows_videos(env.as_dict()), env.texture_size if shows_videos(env.as_dict()) else None, env.camera_id)
+        videos = shows_videos(env.as_dict())
+        kind = (videos, env.texture_size if videos else None, env.camera_id)
         kinds.setdefault(kind, []).append(key)
     share = -(-len(settings) * episodes // max(1, processes))
     per = max(1, min(WARP_BATCH_ENVS, share) // episodes)

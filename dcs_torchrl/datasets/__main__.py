@@ -41,7 +41,8 @@ def _generate(args) -> None:
     record = generate(args.out, domain=args.domain, task=args.task, episodes=args.episodes, policies=args.policy,
                       seed=args.seed, mixing=Mixing(args.epsilon, args.action_noise, args.exploration),
                       masks=args.masks, image_size=args.image_size, render_profile=args.render_profile,
-                      max_steps=args.max_steps, progress=not args.no_progress, **options)
+                      max_steps=args.max_steps, backend=args.backend, num_envs=args.num_envs,
+                      progress=not args.no_progress, **options)
     print(_summary(args.out, record))
 
 
@@ -54,12 +55,33 @@ def _summary(path, record: dict) -> str:
             f"{returns['mean']:.1f} ± {returns['stderr']:.1f}")
 
 
-def _info(args) -> None:
-    from dcs_torchrl.datasets.layout import METADATA, read_json
+def _unfinished(path, record: dict) -> str | None:
+    """What an unfinished set holds and the command that resumes it (``None`` for a finished set)."""
+    from dcs_torchrl.datasets.layout import pending, stored_episodes
 
+    asked = record.get("asked") or {}
+    whole = len(stored_episodes(Path(path)))
+    if not pending(Path(path)) and whole >= asked.get("episodes", 0):
+        return None
+    command = asked.get("command") or "the generate command that made it"
+    return (f"{path}: unfinished: {whole} whole episodes of the {asked.get('episodes', '?')} asked (a run was "
+            f"stopped, or is running); resume it with: {command}")
+
+
+def _info(args) -> None:
+    from dcs_torchrl.datasets.layout import METADATA, check_folder, read_json
+
+    check_folder(Path(args.path), "info")
+    if not (Path(args.path) / METADATA).is_file():
+        raise FileNotFoundError(f"{args.path} holds no dataset (no {METADATA}): make one with "
+                                "`python -m dcs_torchrl.datasets generate ... --out PATH`.")
     record = read_json(Path(args.path) / METADATA)
-    print(json.dumps({k: v for k, v in record.items() if k != "episode_table"}, indent=2) if args.json
-          else _summary(args.path, record))
+    unfinished = _unfinished(args.path, record)
+    if args.json:
+        print(json.dumps({k: v for k, v in record.items() if k != "episode_table"} | {"unfinished": unfinished},
+                         indent=2))
+    else:
+        print(unfinished or _summary(args.path, record))
 
 
 def _bc(args) -> None:
@@ -69,10 +91,21 @@ def _bc(args) -> None:
 
 
 def _export(args) -> None:
-    from dcs_torchrl.datasets.export import export_minari
+    if args.format == "minari":
+        from dcs_torchrl.datasets.export import export_minari
 
-    dataset = export_minari(args.path, args.dataset_id, root=args.root)
-    print(f"wrote the Minari dataset {args.dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps} steps")
+        if args.dataset_id is None or args.out is not None:
+            raise ValueError("export --format minari takes --dataset-id (and --root), not --out.")
+        dataset = export_minari(args.path, args.dataset_id, root=args.root)
+        print(f"wrote the Minari dataset {args.dataset_id}: {dataset.total_episodes} episodes, "
+              f"{dataset.total_steps} steps")
+        return
+    from dcs_torchrl.datasets.vd4rl import export_vd4rl
+
+    if args.out is None or args.dataset_id is not None:
+        raise ValueError(f"export --format {args.format} takes --out DIR (a new folder), not --dataset-id.")
+    files = export_vd4rl(args.path, args.out, args.format)
+    print(f"wrote {len(files)} episodes in V-D4RL's {args.format.removeprefix('vd4rl-')} layout to {args.out}")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -94,8 +127,12 @@ def parser() -> argparse.ArgumentParser:
                      help="std of Gaussian noise added to an agent's action (units of the action range's half-width)")
     gen.add_argument("--exploration", default="deterministic", choices=["deterministic", "random"],
                      help="an agent's action: its mode (default) or a sample of its distribution")
-    gen.add_argument("--masks", action="store_true", help="store make_env's masks (where the backend renders them)")
-    gen.add_argument("--image-size", type=int, default=None, help="default: the agent's, else 84")
+    gen.add_argument("--masks", action="store_true", help="store make_env's masks (--backend warp)")
+    gen.add_argument("--backend", default="gl", choices=["gl", "warp"],
+                     help="gl: one env (default); warp: --num-envs envs rendered in one batch (the same episodes)")
+    gen.add_argument("--num-envs", type=int, default=None, help="--backend warp: envs of the batch (default 16)")
+    gen.add_argument("--image-size", type=int, default=None,
+                     help="default: the agent's, else 84; an agent acts on its own size whatever the set's")
     gen.add_argument("--render-profile", default=None, help="default: the agent's, else default")
     gen.add_argument("--max-steps", type=int, default=None, help="cut episodes after this many steps (truncated)")
     gen.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -113,10 +150,13 @@ def parser() -> argparse.ArgumentParser:
     add_arguments(bc)
     bc.set_defaults(run=_bc)
 
-    export = commands.add_parser("export", help="write a set as a Minari dataset (pip install 'minari[hdf5]')")
+    export = commands.add_parser("export", help="write a set as a Minari dataset or in V-D4RL's layouts")
     export.add_argument("path")
-    export.add_argument("--format", choices=["minari"], default="minari")
-    export.add_argument("--dataset-id", required=True, help="Minari's id, e.g. dcs/cartpole-swingup-medium-expert-v0")
+    export.add_argument("--format", choices=["minari", "vd4rl-npz", "vd4rl-hdf5"], default="minari",
+                        help="minari (pip install 'minari[hdf5]'); vd4rl-npz: V-D4RL's DreamerV2 files; vd4rl-hdf5: "
+                             "its DrQ+BC files (pip install h5py)")
+    export.add_argument("--out", default=None, help="vd4rl-*: the new folder of the files")
+    export.add_argument("--dataset-id", default=None, help="minari: the id, e.g. dcs/cartpole-swingup-medium-expert-v0")
     export.add_argument("--root", default=None, help="Minari's datasets folder (default: MINARI_DATASETS_PATH or ~/.minari)")
     export.set_defaults(run=_export)
     return top
@@ -126,7 +166,8 @@ def main(argv=None) -> None:
     args = parser().parse_args(argv)
     try:
         args.run(args)
-    except (ValueError, FileExistsError, FileNotFoundError) as error:  # a user's mistake: its message, no traceback
+    except (ValueError, FileExistsError, FileNotFoundError, NotADirectoryError, PermissionError,
+            BlockingIOError) as error:  # a user's mistake, or another run's lock: its message, no traceback
         sys.exit(f"error: {error}")
     except ModuleNotFoundError as error:  # an extra not installed: what to install
         if "pip install" not in str(error):

@@ -54,11 +54,29 @@ def _box(gymnasium, value, low=-np.inf, high=np.inf):
     return gymnasium.spaces.Box(low, high, tuple(value.shape[1:]), dtype=value.dtype)
 
 
+def _check_dataset_id(minari, dataset_id: str) -> None:
+    """Refuses, before anything is written, an id Minari cannot parse or one it holds already."""
+    from minari.dataset.minari_dataset import parse_dataset_id
+    from minari.storage import get_dataset_path
+
+    try:
+        parse_dataset_id(dataset_id)
+    except (ValueError, TypeError):  # Minari 0.5.4 raises a TypeError where the version is missing
+        raise ValueError(f"--dataset-id {dataset_id!r}: Minari's ids are (namespace/)name-v<version>, e.g. "
+                         "dcs/cartpole-swingup-medium-expert-v0.") from None
+    if dataset_id in minari.list_local_datasets():
+        raise FileExistsError(f"--dataset-id {dataset_id}: Minari holds that dataset already "
+                              f"({get_dataset_path(dataset_id)}): give another version (-v1, ...), or delete it "
+                              f"first (minari.delete_dataset({dataset_id!r})).")
+
+
 def export_minari(path: str | os.PathLike, dataset_id: str, *, root: str | os.PathLike | None = None):
     """Writes the set ``path`` as the Minari dataset ``dataset_id`` (under ``root``, else Minari's
     folder); returns the ``MinariDataset``."""
     gymnasium, minari, EpisodeBuffer = _import_minari()
     data, record = load_data(path), read_json(Path(path) / METADATA)
+    with _datasets_root(root):
+        _check_dataset_id(minari, dataset_id)
     transitions, frames = data["transitions"], data["frames"]
     buffers = []
     for e in episode_table(Path(path)):

@@ -17,21 +17,25 @@ repeated, as TorchRL's ``CatFrames`` does) and never reaches into another episod
 
 Every write is atomic: an episode is written under a temporary name and renamed; the merged
 ``data/`` is written as ``data.tmp`` and swapped in (the previous ``data`` kept as ``data.old``
-until the swap is done, and restored from it if a run died in between).
+until the swap is done, and restored from it if a run died in between). One run at a time writes a
+set: :func:`writing` holds an exclusive lock on its folder (``flock``), and a second writer is
+refused before it writes anything.
 """
 from __future__ import annotations
 
 import json
 import os
 import shutil
+from contextlib import contextmanager
 from pathlib import Path
 
 from tensordict import TensorDict
 
 from dcs_torchrl.training.rundir import write_json_atomic as write_json
 
-__all__ = ["DATA", "EPISODES", "METADATA", "episode_table", "load_data", "merge_episodes", "read_json", "recover",
-           "stored_episodes", "write_episode", "write_json"]
+__all__ = ["DATA", "EPISODES", "METADATA", "SetBusyError", "check_folder", "episode_table", "load_data",
+           "merge_episodes", "pending", "read_json", "recover", "stored_episodes", "write_episode", "write_json",
+           "writing"]
 
 METADATA = "metadata.json"
 DATA = "data"
@@ -41,8 +45,44 @@ _TABLE = "episodes.json"
 FRAME_KEYS = ("frame", "first_frame")
 
 
+class SetBusyError(BlockingIOError):
+    """Another run is writing the set (it holds the set's lock)."""
+
+
 def read_json(path: Path):
     return json.loads(Path(path).read_text())
+
+
+def check_folder(out: Path, flag: str = "--out") -> None:
+    """Refuses ``out`` naming something that is not a folder."""
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{flag} {os.fspath(out)} is a file, not a folder: give a new folder's path (or a "
+                                 "set's folder).")
+
+
+@contextmanager
+def writing(out: Path):
+    """Holds the exclusive lock of the set ``out`` (an existing folder) while a run writes it: a
+    second writer is refused (:class:`SetBusyError`) before it writes anything. The lock is the
+    kernel's (``flock`` on the folder), so a killed run leaves none behind."""
+    import fcntl
+
+    fd = os.open(out, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise SetBusyError(f"{os.fspath(out)} is being written by another generate run (it holds the set's lock): "
+                               "wait for that run to end, then run this command again (it resumes the set, or "
+                               "finds nothing left to do).") from None
+        yield
+    finally:
+        os.close(fd)
+
+
+def pending(out: Path) -> bool:
+    """Whether a run left something to finish: written episodes not merged, a merge or a swap."""
+    return (out / EPISODES).is_dir() or (out / f"{DATA}.old").exists() or (out / f"{DATA}.tmp").exists()
 
 
 def recover(out: Path) -> None:

@@ -11,7 +11,7 @@ start, never a frame of another episode. Any TorchRL sampler works on the storag
 
 ``layout="vd4rl"`` (:func:`load_vd4rl`) gives the samples the layout of TorchRL's
 ``VD4RLExperienceReplay``: float ``"pixels"`` in [0, 1], channel-first (TorchRL's
-``ToTensorImage``), one frame by default; ``"is_init"``; float32 actions, rewards and
+``ToTensorImage``), one frame by default; ``"is_init"``; ``"discount"``; float32 actions, rewards and
 ``"state"`` entries; ``done`` / ``terminated`` / ``truncated`` at the root and under ``"next"``.
 Code written for V-D4RL runs on it; the set's own entries (distractions, episode, step, ...) come along.
 """
@@ -28,7 +28,7 @@ from torchrl.envs import Compose, ToTensorImage, Transform
 
 from dcs_torchrl.datasets.layout import load_data
 
-__all__ = ["LAYOUTS", "StackFrames", "VD4RLLayout", "load", "load_vd4rl"]
+__all__ = ["LAYOUTS", "ResizePixels", "StackFrames", "VD4RLLayout", "load", "load_vd4rl"]
 
 LAYOUTS = ("ted", "vd4rl")
 
@@ -82,14 +82,17 @@ class StackFrames(Transform):
 
 class VD4RLLayout(Transform):
     """The entries TorchRL's ``VD4RLExperienceReplay`` gives that the set's layout names otherwise:
-    ``"is_init"`` (bool ``[...]``: the episode's first transition), float32 ``"action"``,
-    ``("next", "reward")`` and ``"state"`` / ``("next", "state")`` entries."""
+    ``"is_init"`` (bool ``[...]``: the episode's first transition), ``"discount"`` (float32 ``[...]``:
+    0 where the step's ``("next", "terminated")`` is set, else 1, V-D4RL's discount of that step),
+    float32 ``"action"``, ``("next", "reward")`` and ``"state"`` / ``("next", "state")`` entries."""
 
     def __init__(self):
-        super().__init__(in_keys=["step"], out_keys=["is_init"])
+        super().__init__(in_keys=["step", ("next", "terminated")], out_keys=["is_init", "discount"])
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         tensordict.set("is_init", tensordict.get("step") == 0)
+        terminated = tensordict.get(("next", "terminated"))
+        tensordict.set("discount", (~terminated).reshape(terminated.shape[:-1]).to(torch.float32))
         for key in ("action", ("next", "reward"), "state", ("next", "state")):
             value = tensordict.get(key, None)
             if value is not None:
@@ -97,6 +100,24 @@ class VD4RLLayout(Transform):
         return tensordict
 
     _call = forward
+
+
+class ResizePixels(Transform):
+    """Resizes float channel-first frames ``[..., C, H, W]`` to ``size`` × ``size``, as TorchRL's
+    ``Resize`` does (bilinear, antialiased: what torchvision's ``resize`` computes on tensors) with
+    ``torch.nn.functional.interpolate`` alone, so that no torchvision is needed."""
+
+    def __init__(self, size: int, *, in_keys):
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise ValueError(f"image_size must be a positive integer, got {size!r}.")
+        super().__init__(in_keys=in_keys, out_keys=in_keys)
+        self.size = size
+
+    def _apply_transform(self, pixels: torch.Tensor) -> torch.Tensor:
+        flat = pixels.reshape(-1, *pixels.shape[-3:])
+        resized = torch.nn.functional.interpolate(flat, size=(self.size, self.size), mode="bilinear",
+                                                  align_corners=False, antialias=True)
+        return resized.reshape(*pixels.shape[:-2], self.size, self.size)
 
 
 def load(path: str | os.PathLike, batch_size: int, frame_stack: int = 3, *, layout: str = "ted",
@@ -115,8 +136,8 @@ def load(path: str | os.PathLike, batch_size: int, frame_stack: int = 3, *, layo
         sampler: a TorchRL sampler (default: ``RandomSampler``, uniform with replacement).
         transform: applied to each sample after the frames are stacked (and, for ``vd4rl``, after its layout).
         prefetch, pin_memory: as ``TensorDictReplayBuffer``'s.
-        image_size: ``vd4rl`` only: resize the pixels (TorchRL's ``Resize``; needs torchvision), as
-            ``VD4RLExperienceReplay``'s ``image_size``.
+        image_size: ``vd4rl`` only: resize the pixels (:class:`ResizePixels`, as TorchRL's ``Resize``
+            without torchvision), as ``VD4RLExperienceReplay``'s ``image_size``.
 
     The storage is the set's memory-mapped files: the buffer is read-only (TorchRL's
     ``ImmutableDatasetWriter``) and reads only what it samples.
@@ -132,9 +153,7 @@ def load(path: str | os.PathLike, batch_size: int, frame_stack: int = 3, *, layo
     if layout == "vd4rl":
         transforms += [VD4RLLayout(), ToTensorImage(in_keys=["pixels", ("next", "pixels")], shape_tolerant=True)]
         if image_size is not None:
-            from torchrl.envs import Resize
-
-            transforms.append(Resize(image_size, in_keys=["pixels", ("next", "pixels")]))
+            transforms.append(ResizePixels(image_size, in_keys=["pixels", ("next", "pixels")]))
     if transform is not None:
         transforms.append(transform)
     return TensorDictReplayBuffer(storage=TensorStorage(data["transitions"]), sampler=sampler or RandomSampler(),

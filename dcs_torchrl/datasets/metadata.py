@@ -17,25 +17,48 @@ from pathlib import Path
 
 from dcs_torchrl.envs import EnvSettings
 
-__all__ = ["FORMAT", "IDENTITY", "describe_keys", "differences", "episode_seed", "identity", "versions"]
+__all__ = ["FORMAT", "IDENTITY", "describe_keys", "differences", "episode_seed", "episode_seeds", "identity",
+           "versions"]
 
-#: The version of the files' layout (layout.py).
-FORMAT = 1
+#: The version of the files' layout (layout.py) and of the episodes' seeds (2: TorchRL's chain).
+FORMAT = 2
 IDENTITY = ("format", "suite_version", "env", "pixels", "max_steps", "policies", "mixing", "seed")
-#: How episode k's seed is derived: the same for episode k of every run of a set, cut or not.
-EPISODE_SEEDS = "numpy.random.SeedSequence([seed, k]).generate_state(1)[0]"
+#: How episode k's seed is derived: the same for episode k of every run of a set, cut or not, on
+#: either backend.
+EPISODE_SEEDS = "episode 0: seed; episode k: what env.set_seed(seed of episode k - 1) returns (TorchRL's chain)"
+
+
+def episode_seeds(seed: int, first: int, count: int) -> list[int]:
+    """The seeds of episodes ``first .. first + count - 1`` of a set of ``seed`` (:data:`EPISODE_SEEDS`).
+
+    TorchRL seeds the envs of a batch by a chain: env ``i`` gets what env ``i - 1``'s ``set_seed``
+    returns. Episode ``k`` of a set gets the ``k``-th seed of that chain from ``seed``, so that a batch
+    of ``N`` envs seeded with episode ``k``'s seed runs episodes ``k .. k + N - 1`` in its envs, and
+    one env seeded with it runs episode ``k``: the same episodes on the GL and the Warp backend, for
+    any number of envs. Each episode's env, policy noise and torch generator are seeded with its seed.
+
+    >>> episode_seeds(0, 0, 3)[1:] == episode_seeds(0, 1, 2) and episode_seeds(7, 0, 1) == [7]
+    True
+    """
+    from torchrl._utils import seed_generator  # what EnvBase.set_seed returns
+
+    chained = seed
+    for _ in range(first):
+        chained = seed_generator(chained)
+    seeds = []
+    for _ in range(count):
+        seeds.append(int(chained))
+        chained = seed_generator(chained)
+    return seeds
 
 
 def episode_seed(seed: int, episode: int) -> int:
-    """The seed of episode ``episode`` of a set of ``seed`` (:data:`EPISODE_SEEDS`): the env's, the
-    policy's noise and torch's generator are seeded with it before the episode.
+    """The seed of episode ``episode`` of a set of ``seed`` (:func:`episode_seeds`).
 
     >>> episode_seed(0, 3) == episode_seed(0, 3) != episode_seed(0, 4)
     True
     """
-    import numpy as np
-
-    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+    return episode_seeds(seed, episode, 1)[0]
 
 
 def _version(package: str) -> str | None:

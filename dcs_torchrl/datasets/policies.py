@@ -6,7 +6,8 @@ trained agent as :func:`dcs_torchrl.pretrained.load_pretrained` loads it: a ship
 (``sac_rad_cartpole_swingup``), an exported agent's directory or a finished run's directory (its
 newest checkpoint that verifies). An agent acts on the recipes' observation, ``S`` stacked
 channel-first frames (its run's ``pixels.frame_stack``; the first frame repeated at a reset, as
-TorchRL's ``CatFrames`` does), rebuilt here from the raw frames the set stores.
+TorchRL's ``CatFrames`` does), at its own image size, which may differ from the set's: generation
+then renders the agent's frames beside the set's (generation.py).
 
 Mixed quality, as V-D4RL makes its ``medium_replay`` / ``mixed`` sets: several ``--policy``
 values (episode ``k`` is acted by policy ``k mod P``: e.g. one agent at several checkpoints and
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import torch
 from tensordict import TensorDict
@@ -63,7 +64,6 @@ class BehaviourPolicy:
     name: str
     agent: object = None
     checkpoint_sha256: str | None = None
-    _stack: deque = field(default_factory=deque, repr=False)
 
     @property
     def pixels(self) -> dict | None:
@@ -85,8 +85,8 @@ class BehaviourPolicy:
                 "steps": results["steps"], "checkpoint_sha256": self.checkpoint_sha256,
                 "frame_stack": self.pixels["frame_stack"]}
 
-    def check_task(self, domain: str, task: str, image_size: int) -> None:
-        """Refuses an agent of another task or image size than the set's."""
+    def check_task(self, domain: str, task: str) -> None:
+        """Refuses an agent of another task than the set's."""
         if self.agent is None:
             return
         results = self.agent.results
@@ -94,31 +94,32 @@ class BehaviourPolicy:
             raise ValueError(f"--policy {self.name} was trained on {results['domain']} {results['task']}, the set is "
                              f"{domain} {task}: pass --domain {results['domain']} --task {results['task']}, or "
                              "another policy (random, or an agent of this task).")
-        if self.pixels["image_size"] != image_size:
-            raise ValueError(f"--policy {self.name} acts on {self.pixels['image_size']}-pixel frames, the set asks for "
-                             f"--image-size {image_size}: leave --image-size out (it defaults to the agent's).")
 
-    def start_episode(self, frame: torch.Tensor) -> None:
-        """Forgets the previous episode's frames: ``frame`` (HWC uint8) is the reset's."""
-        if self.agent is not None:
-            depth = self.pixels["frame_stack"]
-            self._stack = deque([frame.permute(2, 0, 1)] * depth, maxlen=depth)
+    def start_episode(self, frame: torch.Tensor) -> deque | None:
+        """The frame stack of a new episode whose reset frame is ``frame`` (HWC uint8, at the agent's
+        image size): the frame repeated ``frame_stack`` times; ``None`` for the random policy."""
+        if self.agent is None:
+            return None
+        depth = self.pixels["frame_stack"]
+        return deque([frame.permute(2, 0, 1)] * depth, maxlen=depth)
 
-    def observe(self, frame: torch.Tensor) -> None:
-        """The newest frame (HWC uint8) after a step."""
-        if self.agent is not None:
-            self._stack.append(frame.permute(2, 0, 1))
+    @staticmethod
+    def observe(stack: deque | None, frame: torch.Tensor) -> None:
+        """Adds the newest frame (HWC uint8) after a step to an episode's ``stack``."""
+        if stack is not None:
+            stack.append(frame.permute(2, 0, 1))
 
-    def act(self, action_spec, mixing: Mixing, generator: torch.Generator) -> torch.Tensor:
-        """The action for the frames observed so far, perturbed by ``mixing`` with ``generator``'s draws."""
-        low, high = action_spec.space.low, action_spec.space.high
+    def act(self, stack: deque | None, low: torch.Tensor, high: torch.Tensor, mixing: Mixing,
+            generator: torch.Generator) -> torch.Tensor:
+        """The action for an episode's frame ``stack``, within ``[low, high]`` (one env's action
+        bounds), perturbed by ``mixing`` with ``generator``'s draws."""
         uniform = lambda: low + (high - low) * torch.rand(low.shape, generator=generator, dtype=low.dtype)  # noqa: E731
         if self.agent is None:
             return uniform()
         if mixing.epsilon > 0 and float(torch.rand((), generator=generator)) < mixing.epsilon:
             return uniform()
         with set_exploration_type(EXPLORATION[mixing.exploration]), torch.no_grad():
-            td = self.agent.policy(TensorDict({"pixels": torch.cat(list(self._stack))}, []))
+            td = self.agent.policy(TensorDict({"pixels": torch.cat(list(stack))}, []))
         action = td["action"].to(low.dtype)
         if mixing.action_noise > 0:
             noise = torch.randn(action.shape, generator=generator, dtype=low.dtype) * mixing.action_noise

@@ -6,9 +6,9 @@ The render context of a physics is created by the suite, with the settings of a 
 ========== ================================ ===============================================
 profile    settings                         versus ``physics.render`` of the same scene
 ========== ================================ ===============================================
-default    4x MSAA, shadow map scaled to    mean abs. pixel difference ≤ 0.1 (measured in
-           the image, buffer = image size,  the tests); what the paper's numbers were
-           one persistent camera            rendered with
+default    4x MSAA, shadow map scaled to    mean abs. pixel difference ≤ 0.1 (checked by
+           the image, buffer = image size,  ``tests/test_render.py``); what the paper's
+           one persistent camera            numbers were rendered with
 fast       no MSAA, small shadow map, ...   mean difference ≤ 1 grey level, cheaper
 ========== ================================ ===============================================
 
@@ -16,10 +16,9 @@ Textures edited by the distractions (the skybox) are uploaded here, right before
 render, so that a frame-skip of k costs one upload and one render per agent step. Only
 what the render samples is sent: of the six cube faces, the rectangles the camera's view
 frustum covers (widened to cover texture filtering), each as its two finest mipmap
-levels; the rest follows when a camera turns towards it. A medium-benchmark cheetah view
-sends ~6% of the texels of a six-face upload and renders the same pixels (compared
-exactly in ``tests/test_render.py``); see :meth:`_Context.upload_cube` and
-:mod:`dcs_torchrl._skybox`.
+levels; the rest follows when a camera turns towards it. The pixels are those of a
+six-face upload (compared exactly in ``tests/test_render.py``); see
+:meth:`_Context.upload_cube` and :mod:`dcs_torchrl._skybox`.
 """
 from __future__ import annotations
 
@@ -105,23 +104,18 @@ class _Context:
             self.width, self.height = max(width, self.width), max(height, self.height)
             self._make()
 
-    def upload_cube(self, tex_id: int, faces: list[np.ndarray], unchanging: bool = False) -> None:
+    def upload_cube(self, tex_id: int, faces: list[np.ndarray]) -> None:
         """Takes new content of a cube/skybox texture whose data the caller wrote into ``model.tex_data``.
 
         ``faces`` holds the six faces (or one face repeated on all six), each [s, s, 3]
-        uint8; only the rectangles sent are converted to RGBA, at every upload (``unchanging``,
-        the caller's promise that the arrays never change, is accepted and changes nothing: a
-        cache of converted frames it enabled measured inside the noise of a step, and went).
-        At its first new content in this context (and at a new size) the texture is
+        uint8; only the rectangles sent are converted to RGBA, at every upload. At its first new content in this context (and at a new size) the texture is
         given new storage, of that size, keeping MuJoCo's sampling parameters: RGBA8, so
         that RGBA texels are copied as they are (Mesa's llvmpipe converts them to its RGBX
         layout for MuJoCo's RGB textures), and its two finest mipmap levels only
-        (``GL_TEXTURE_MAX_LEVEL``), which the suite writes itself: at the sizes a sky is seen
-        at, rendering is the same as with the full chain (measured), and the upload cheaper
-        than regenerating mipmaps (docs/performance.md, "The sky texture"). The content itself is only recorded here:
-        :meth:`upload_visible`, right before each render, sends the part of the sky that
-        render samples (``glTexSubImage2D``), and the rest when a later render needs it (a
-        camera that turns). A medium-benchmark cheetah view costs ~6% of the texels of six faces.
+        (``GL_TEXTURE_MAX_LEVEL``), which the suite writes itself (docs/performance.md, "The
+        sky texture"). The content itself is only recorded here: :meth:`upload_visible`, right
+        before each render, sends the part of the sky that render samples (``glTexSubImage2D``),
+        and the rest when a later render needs it (a camera that turns).
         """
         model, contexts = self.physics.model, self.physics.contexts
         size = (int(model.tex_width[tex_id]), int(model.tex_height[tex_id]))
@@ -325,14 +319,7 @@ class RenderPixels(Transform):
         *,
         profile: str = "default",
         out_keys=None,
-        pixels_only=None,
     ):
-        if pixels_only is not None:
-            raise TypeError(
-                "RenderPixels no longer drops the state observations: append "
-                "torchrl.envs.ExcludeTransform(*base_env.observation_spec.keys()) after it "
-                "(make_env(..., pixels_only=True) does)."
-            )
         if int(height) < 1 or int(width) < 1:
             raise ValueError(f"RenderPixels needs a positive image size, got height={height}, width={width}.")
         if profile not in PROFILES:

@@ -91,11 +91,6 @@ def test_pixels_only():
         check_env_specs(env)
 
 
-def test_pixels_only_is_no_longer_a_render_setting():
-    with pytest.raises(TypeError, match="ExcludeTransform"):
-        RenderPixels(pixels_only=True)
-
-
 def test_size_and_camera():
     env = TransformedEnv(DMControlEnv("cheetah", "run", from_pixels=False), RenderPixels(48, 64, camera_id=1))
     pixels = env.reset()["pixels"]

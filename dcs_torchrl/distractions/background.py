@@ -219,7 +219,7 @@ class BackgroundDistraction(DistractionTransform):
         :meth:`dcs_torchrl.render._Context.upload_cube`), and the rest when a camera needs it.
         """
         if self._pending is not None:
-            context.upload_cube(self._sky, self._pending, unchanging=self._sky_faces is None)
+            context.upload_cube(self._sky, self._pending)
             self._pending = None
 
     def _state(self) -> np.ndarray:

@@ -59,7 +59,7 @@ class ColorDistraction(DistractionTransform):
         if self.scale > 0 and self.dynamic:
             rgb = self._rgb.copy()  # the exposed state of the last step stays as it was
             for step in self._rng.standard_normal((n_steps, *rgb.shape)) * (_WALK_STD * self.scale):
-                rgb += step  # then clipped: np.clip's dispatch costs more than these two
+                rgb += step  # then clipped to [low, high], in place
                 np.maximum(rgb, self._low, out=rgb)
                 np.minimum(rgb, self._high, out=rgb)
             self._rgb = rgb

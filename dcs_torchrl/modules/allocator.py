@@ -1,14 +1,13 @@
-"""Keep freed memory in the process: the allocator setting that makes CPU training ~3x faster.
+"""Keep freed memory in the process: the allocator setting for training on a CPU.
 
 PyTorch on CPU allocates every activation and gradient with ``malloc`` and frees it at the end
-of the update. With glibc's defaults, blocks above the mmap threshold (at most 32 MB, and a batch
-of 512 pixel observations makes ~100 MB activations) are ``mmap``-ed and ``munmap``-ed every
-time, and freed heap tops are trimmed: every update page-faults its whole working set back in,
-and the kernel zeroes every page. On this project's 2-core machines that is most of the time of
-a pixel update (docs/performance.md: the reference DrQ update takes ~13 s at batch 512 with glibc, ~6 s
-with jemalloc and its page decay off).
+of the update. With glibc's defaults, blocks above the mmap threshold (at most 32 MB; a batch of
+pixel observations makes larger activations) are ``mmap``-ed and ``munmap``-ed every time, and
+freed heap tops are trimmed: every update page-faults its whole working set back in, and the
+kernel zeroes every page (what that costs: docs/notes/performance_log.md, "The update's memory
+allocator"; ``benchmarks/update_speed.py --allocators`` compares the settings).
 
-:func:`retain_freed_memory` gets the same effect without preloading another allocator: it calls
+:func:`retain_freed_memory` does what preloading jemalloc (page decay off) does, without another allocator: it calls
 glibc's ``mallopt`` to serve large blocks from the heap (``M_MMAP_MAX = 0``) and never trim it
 (``M_TRIM_THRESHOLD`` huge), so freed buffers are reused by the next update. The price is that
 the process keeps its peak memory (RSS never shrinks). It changes allocations made after the

@@ -106,8 +106,7 @@ class PixelEncoder(nn.Module):
         num_filters (int): filters per convolution. Defaults to ``32``.
         num_layers (int): convolutions (the first of stride 2). Defaults to ``4``.
         channels_last (bool): run the convolutions in NHWC memory format (same math, summed in
-            another order; never slower on the CPUs measured: docs/performance.md, "Updates",
-            ``benchmarks/update_speed.py``). Defaults to ``True``.
+            another order; its speed: docs/performance.md, "Updates"). Defaults to ``True``.
         compile (bool): ``torch.compile`` the convolutions (:func:`conv_trunk`). Defaults to
             ``False``.
 

@@ -27,7 +27,7 @@ CONFIG_PATH = "pkg://dcs_torchrl.training.conf"
 
 def train_from_config(cfg: DictConfig) -> dict:
     """Trains the agent of ``cfg.algo.name`` into Hydra's run directory; returns ``results.json``'s content."""
-    retain_freed_memory()  # keep the update's large buffers between updates (~3x faster on CPU)
+    retain_freed_memory()  # keep the update's large buffers between updates (dcs_torchrl.modules.allocator)
     return train(cfg, agent_class(cfg.algo.name), HydraConfig.get().runtime.output_dir)
 
 

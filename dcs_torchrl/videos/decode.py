@@ -1,8 +1,8 @@
 """Reading frames from disk into square RGB uint8 arrays: image sequences and video files.
 
 JPEGs much larger than the target are decoded at reduced size by libjpeg's DCT scaling
-(``cv2.IMREAD_REDUCED_COLOR_2/4/8``), which is several times faster than a full decode,
-then squashed to [size, size] with ``cv2.INTER_AREA``.
+(``cv2.IMREAD_REDUCED_COLOR_2/4/8``), cheaper than a full decode, then squashed to
+[size, size] with ``cv2.INTER_AREA``.
 """
 from __future__ import annotations
 

@@ -20,7 +20,7 @@ https://davischallenge.org/davis2017/code.html) and pass its folder, e.g.
 ``make_env(..., background_dir="~/data/DAVIS")`` or
 ``dcs_torchrl.videos.open_source("~/data/DAVIS")``.
 
-A clip is generated the first time it is used (~0.15 s at 256x256), straight at the
+A clip is generated the first time it is used, straight at the
 texture size, and then shared through the frame cache. Each clip has a fixed seed, so
 it is the same bits on every machine for a given numpy and OpenCV version (only IEEE
 arithmetic, numpy's power for the tone curves' tables and OpenCV's bit-exact

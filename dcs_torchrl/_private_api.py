@@ -1,9 +1,10 @@
-"""Every private API of TorchRL and dm_control the package uses, in one place.
+"""Every private API of TorchRL, dm_control and MuJoCo Warp the package uses, in one place.
 
 Each entry names the symbol, where the package relies on it, and why no public API does the
-job (TorchRL 0.14, dm_control 1.0). ``tests/test_private_api.py`` checks that every symbol is
-still there, so that an upgrade that removes one fails with a message naming it and its user,
-not deep inside a rollout or an update. Public APIs are used everywhere else.
+job (TorchRL 0.14, dm_control 1.0, mujoco_warp 3.17). ``tests/test_private_api.py`` checks
+that every symbol is still there, so that an upgrade that removes one fails with a message
+naming it and its user, not deep inside a rollout or an update. Public APIs are used
+everywhere else.
 
 =============================================  ==============================================
 symbol                                         used by, and why
@@ -20,7 +21,9 @@ symbol                                         used by, and why
 ``DMControlEnv._env``                          :mod:`dcs_torchrl._scene`: the wrapped
                                                dm_control env, for its ``physics`` (no public
                                                accessor); :mod:`dcs_torchrl.gym_env`: its
-                                               ``control_timestep()``, for ``render_fps``.
+                                               ``control_timestep()``, for ``render_fps``;
+                                               :mod:`dcs_torchrl.batched`: the dm_control env
+                                               each env of a batch steps.
 ``Physics._contexts``,                         :mod:`dcs_torchrl.render`: a render context
 ``Physics._free_rendering_contexts``           made by someone else with other settings is
                                                freed before the suite's own is made.
@@ -47,18 +50,36 @@ _set_missing_tolerance``                       augmentation applied at reset tol
 ``LossModule.                                  :mod:`dcs_torchrl.objectives.qtopt`:
 _prepare_value_estimator_kwargs``              ``make_value_estimator``'s defaults (gamma
                                                ...), as TorchRL's losses resolve them.
+``dm_control.suite.common.ASSETS``             :func:`dcs_torchrl.batched.compact_skies`: the
+(``./common/skybox.xml``'s text)               skybox's ``width``/``height`` rewritten while
+                                               the envs of a batch whose sky is never rendered
+                                               compile (dm_control takes no texture size).
+``mujoco_warp.RenderContext``'s ``rgb_data``,  :mod:`dcs_torchrl.warp_render`: one kernel reads
+``rgb_adr``, ``seg_data``, ``seg_adr``,        the trace's packed colours, segmentation and
+``ray``, ``cam_res``                           camera-frame rays where a camera's pixels start
+                                               (:func:`render_offsets`) and finishes each pixel
+                                               (sky, see-through floor, labels) in one pass;
+                                               ``get_rgb`` / ``get_segmentation`` copy each
+                                               buffer out apart, and nothing public gives rays.
+``RenderContext._megakernel``                  :mod:`dcs_torchrl.warp_render`: MuJoCo Warp
+                                               builds a context's kernel at its first render
+                                               and keeps it there; a renderer renders once when
+                                               made, so that renderers made in one thread and
+                                               rendering in several never build it at once.
 =============================================  ==============================================
 """
 from __future__ import annotations
 
 import weakref
+from typing import NamedTuple
 
 from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_tolerance
 from torchrl.objectives.utils import _vmap_func as vmap_func
 
 __all__ = [
     "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "control_timestep", "dm_physics",
-    "free_foreign_render_contexts", "priority_weight", "reduce_loss", "replace_set_seed", "sac_alpha_loss",
+    "free_foreign_render_contexts", "priority_weight", "reduce_loss", "RenderOffsets", "render_offsets", "replace_set_seed",
+    "sac_alpha_loss",
     "set_missing_tolerance", "value_estimator_kwargs", "vmap_func",
 ]
 
@@ -66,9 +87,10 @@ __all__ = [
 PRIVATE_SYMBOLS = (
     ("torchrl.envs.EnvBase", "_set_seed", "dcs_torchrl.distractions.base"),
     ("torchrl.envs.Transform", "_container", "dcs_torchrl._scene"),
-    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env"),
+    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env, dcs_torchrl.batched"),
     ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render"),
     ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render"),
+    ("dm_control.suite.common", "ASSETS", "dcs_torchrl.batched"),
     ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.modules.augment"),
     ("torchrl.objectives.utils", "_vmap_func", "dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.SACLoss", "_compute_target_v2", "dcs_torchrl.objectives.sac"),
@@ -79,7 +101,8 @@ PRIVATE_SYMBOLS = (
     ("torchrl.objectives.LossModule", "_maybe_get_priority_weight", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.LossModule", "_default_value_estimator", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.LossModule", "_prepare_value_estimator_kwargs", "dcs_torchrl.objectives.qtopt"),
-)
+) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.warp_render")
+          for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel"))
 
 
 def base_set_seed(base_env):
@@ -138,3 +161,23 @@ def value_estimator_kwargs(loss_module, value_type, **hyperparams):
 def sac_alpha_loss(sac_loss, log_prob):
     """``SACLoss``'s temperature loss for ``log_prob`` (unreduced)."""
     return sac_loss._alpha_loss(log_prob)
+
+
+class RenderOffsets(NamedTuple):
+    """Where one active camera's pixels start in a MuJoCo Warp render context's buffers."""
+
+    rgb: int  #: in each world's row of ``rgb_data`` (packed colours)
+    seg: int  #: in each world's row of ``seg_data`` (``(geom, object type)`` per pixel)
+    ray: int  #: in ``ray`` (camera-frame directions, shared by the worlds)
+
+
+def render_offsets(context, index: int) -> RenderOffsets:
+    """:class:`RenderOffsets` of the ``index``-th active camera of a ``mujoco_warp.RenderContext``
+    made with colours and segmentation on (its ``rgb_adr`` and ``seg_adr``; the rays of the active
+    cameras follow one another, ``cam_res`` pixels each)."""
+    resolutions = context.cam_res.numpy()
+    rgb, seg = int(context.rgb_adr.numpy()[index]), int(context.seg_adr.numpy()[index])
+    if rgb < 0 or seg < 0:
+        raise ValueError(f"camera {index} of this render context renders no colours or no segmentation: "
+                         "make it with render_rgb=True and render_seg=True.")
+    return RenderOffsets(rgb, seg, int(sum(int(w) * int(h) for w, h in resolutions[:index])))

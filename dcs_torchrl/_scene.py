@@ -11,12 +11,11 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass
 
-from torchrl.envs import Compose, DMControlWrapper, EnvBase, Transform, TransformedEnv
-from torchrl.envs.batched_envs import BatchedEnvBase
+from torchrl.envs import Compose, DMControlWrapper, EnvBase, ParallelEnv, SerialEnv, Transform, TransformedEnv
 
 from dcs_torchrl._private_api import container_of, dm_physics
 
-#: The class attribute, set to True, by which an env that is not a TorchRL ``BatchedEnvBase``
+#: The class attribute, set to True, by which an env that is not a TorchRL ``SerialEnv`` or ``ParallelEnv``
 #: says that its dm_control physics live out of a transform's reach (in its workers):
 #: :class:`~dcs_torchrl.ParallelSuiteEnv` sets it, so that this module, which every distraction
 #: uses, imports nothing about processes.
@@ -95,7 +94,7 @@ def locate(transform: Transform, *, strict: bool) -> Scene | None:
     while isinstance(base, TransformedEnv):  # nested with auto_unwrap=False
         chain = _flatten(base.transform) + chain
         base = base.base_env
-    if isinstance(base, BatchedEnvBase) or getattr(type(base), PHYSICS_ELSEWHERE, False) is True:
+    if isinstance(base, (SerialEnv, ParallelEnv)) or getattr(type(base), PHYSICS_ELSEWHERE, False) is True:
         raise RuntimeError(
             f"{name} is placed over a {type(base).__name__}, whose dm_control physics live in "
             f"its workers (other processes or sub-envs), out of this transform's reach: {_FACTORY_HINT}."

@@ -16,10 +16,15 @@ pixel as MuJoCo's OpenGL renderer does for the suite's scenes:
   scenes has one);
 * with ``masks``, a label per pixel (:data:`MASK_LABELS`) from the same trace's segmentation.
 
-What differs from GL (no reflections, no multisampling, no mipmaps) is measured in docs/results.md,
-"Warp backend fidelity". MuJoCo Warp (``pip install "dcs-torchrl[warp]"``) is imported on first use.
+What differs from GL (no reflections, no multisampling, no mipmaps) is measured in docs/batched.md,
+"Fidelity: the same states through both renderers". MuJoCo Warp (``pip install "dcs-torchrl[warp]"``)
+is imported on first use.
 """
 # no "from __future__ import annotations": Warp reads its kernels' annotations as objects
+import os
+import re
+import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -28,23 +33,52 @@ import mujoco
 import numpy as np
 import torch
 
+from dcs_torchrl._private_api import render_offsets
+
 #: The labels of ``masks`` (uint8 per pixel).
 MASK_LABELS: MappingProxyType[str, int] = MappingProxyType({"background": 0, "floor": 1, "agent": 2})
 
 WARP_EXTRA_HINT = 'backend="warp" needs MuJoCo Warp: pip install "dcs-torchrl[warp]" (mujoco-warp and warp-lang).'
 
 
-def import_warp():
-    """``(warp, mujoco_warp)``, or an ImportError naming the extra to install."""
+def import_warp(device: str | None = None):
+    """``(warp, mujoco_warp)``, or an ImportError naming the extra to install; with ``device``
+    (:func:`warp_device`'s name), Warp initialised for it."""
     try:
         import warp
 
-        warp.config.quiet = True  # before Warp initialises: no banner
-        warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)  # no line per module loaded
+        warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)  # no banner, no line per module
         import mujoco_warp
     except ImportError as error:  # pragma: no cover - exercised where the extra is missing
         raise ImportError(WARP_EXTRA_HINT) from error
+    if device == "cpu":
+        _init_without_driver_warning(warp)
+    elif device is not None:
+        warp.init()
     return warp, mujoco_warp
+
+
+#: What Warp's native library prints on stderr at its start where no NVIDIA driver is installed.
+_NO_DRIVER = re.compile(rb"Warp CUDA warning: Could not find or load the NVIDIA CUDA driver\.[^\n]*\n?")
+
+
+def _init_without_driver_warning(warp) -> None:
+    """``warp.init()`` with the CUDA-driver warning left out: Warp probes for a driver whatever the
+    device asked for (warp-lang 1.19 has no setting to skip it), and a machine without one is fine for
+    the CPU. Anything else it prints on stderr is passed on."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as captured:
+        os.dup2(captured.fileno(), 2)
+        try:
+            warp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        captured.seek(0)
+        rest = _NO_DRIVER.sub(b"", captured.read())
+    if rest:
+        os.write(2, rest)
 
 
 def warp_device(device) -> str:
@@ -177,8 +211,11 @@ def _kernels(wp):
     @wp.kernel
     def finish(
         packed: wp.array2d(dtype=wp.uint32),
+        packed_adr: int,
         seg: wp.array2d(dtype=wp.vec2i),
+        seg_adr: int,
         rays: wp.array(dtype=wp.vec3),
+        ray_adr: int,
         cam_xmat: wp.array2d(dtype=wp.mat33),
         camera: int,
         alpha: wp.array2d(dtype=float),
@@ -192,11 +229,11 @@ def _kernels(wp):
         world, pixel = wp.tid()
         y = pixel // width
         x = pixel - y * width
-        value = packed[world, pixel]
+        value = packed[world, packed_adr + pixel]
         color = wp.vec3(float((value >> wp.uint32(16)) & wp.uint32(255)),
                         float((value >> wp.uint32(8)) & wp.uint32(255)),
                         float(value & wp.uint32(255)))
-        geom = seg[world, pixel][0]
+        geom = seg[world, seg_adr + pixel][0]
         a = float(0.0)  # a ray that meets nothing shows the sky
         if geom >= 0:
             a = alpha[world, geom]
@@ -204,7 +241,7 @@ def _kernels(wp):
             # (render_gl3.c, "transparent regular rendering"): over the sky, 1 - (1 - a)^2 of it shows
             a = 1.0 - (1.0 - a) * (1.0 - a)
         if a < 1.0:
-            d = cam_xmat[world, camera] * rays[pixel]
+            d = cam_xmat[world, camera] * rays[ray_adr + pixel]
             color = a * color + (1.0 - a) * sample_sky(sky, world, d)
         for c in range(3):
             pixels[world, y, x, c] = wp.uint8(wp.clamp(wp.round(color[c]), 0.0, 255.0))
@@ -237,12 +274,12 @@ class WarpRenderer:
 
     def __init__(self, model, n: int, height: int, width: int, camera_id: int, device="cpu", *,
                  shadows: bool = True, agent_geoms=None, floor_geoms=None):
-        wp, mjw = import_warp()
+        self.device = warp_device(device)
+        wp, mjw = import_warp(self.device)
         self._wp = wp
         self.n, self.height, self.width, self.camera_id = int(n), int(height), int(width), int(camera_id)
         if not 0 <= self.camera_id < model.ncam:
             raise ValueError(f'backend="warp" renders a model camera: camera_id={camera_id} is not in [0, {model.ncam}).')
-        self.device = warp_device(device)
         self.torch_device = torch.device(self.device)
         mjm = model.ptr if hasattr(model, "ptr") else model
         with wp.ScopedDevice(self.device):
@@ -253,6 +290,7 @@ class WarpRenderer:
                 render_seg=True, use_textures=True, use_shadows=bool(shadows), cam_active=[self.camera_id],
                 render_skybox=False, background_color=(0.0, 0.0, 0.0, 1.0),
             )
+            self._offsets = render_offsets(self.context, 0)  # where the one active camera's pixels lie
             self.pixels = wp.zeros((self.n, self.height, self.width, 3), dtype=wp.uint8)
             self.want_labels = agent_geoms is not None
             self.labels = wp.zeros((self.n, self.height, self.width) if self.want_labels else (1, 1, 1), dtype=wp.uint8)
@@ -266,9 +304,9 @@ class WarpRenderer:
             self._sky = None
             self._finish = _kernels(wp)
             # Build this renderer's kernels now, in the thread that makes it: MuJoCo Warp specialises
-            # a kernel per render context at its first render, and renderers of one batch render in
-            # threads at once (BatchedSuiteEnv), where two first renders built together gave a few
-            # wrong pixels. A render of the zeroed worlds builds it; nothing of it is kept.
+            # a kernel per render context at its first render (dcs_torchrl/_private_api.py), and the
+            # renderers of one batch render in threads at once (BatchedSuiteEnv), where two first
+            # renders must not build theirs together. A render of the zeroed worlds builds it.
             mjw.refit_bvh(self.model, self.data, self.context)
             mjw.render(self.model, self.data, self.context)
             wp.load_module(self._finish.module, device=self.device)
@@ -339,8 +377,9 @@ class WarpRenderer:
             mjw.render(m, d, rc)
             wp.launch(
                 self._finish, dim=(n, self.height * self.width),
-                inputs=[rc.rgb_data, rc.seg_data, rc.ray, d.cam_xmat, self.camera_id, self._alpha, self._geom_label,
-                        self._sky, self.width, self.pixels, self.labels, int(self.want_labels)],
+                inputs=[rc.rgb_data, self._offsets.rgb, rc.seg_data, self._offsets.seg, rc.ray, self._offsets.ray,
+                        d.cam_xmat, self.camera_id, self._alpha, self._geom_label, self._sky, self.width, self.pixels,
+                        self.labels, int(self.want_labels)],
             )
             if self.device != "cpu":
                 wp.synchronize_device(self.device)  # torch reads the buffers next, on its own stream

@@ -45,6 +45,9 @@ __all__ = ["AXES", "Point", "sweep_points", "robustness_sweep", "sweep_agent", "
 AXES = {"camera": "camera", "color": "color", "background": "background_blend"}
 QUICK_INTENSITIES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
 SETTINGS = {"static": (False,), "dynamic": (True,), "both": (False, True)}
+#: The renderers of ``--backend``, as the outputs name them: scores compare on one renderer only
+#: (docs/results.md, "Warp backend").
+RENDERERS = {"gl": "rendered by MuJoCo's OpenGL renderer (GL)", "warp": "rendered by MuJoCo Warp"}
 
 
 @dataclass(frozen=True)
@@ -111,10 +114,13 @@ def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float]
             for dynamic in SETTINGS[setting] for value in values]
 
 
-def _progress(items, enabled: bool):
+def _progress(items, enabled: bool, desc: str = "robustness"):
+    """A bar over ``items``, the distinct envs evaluated (comparable work each: one setting's episodes).
+    Its rate is the mean since the start and every update is drawn, so that points finishing together
+    (a Warp batch) count at once."""
     from tqdm import tqdm
 
-    return tqdm(items, unit="point", disable=not enabled or not items, desc="robustness")
+    return tqdm(items, unit="point", disable=not enabled or not items, desc=desc, smoothing=0, mininterval=0)
 
 
 def robustness_sweep(policy, make_env: Callable[..., object], points: Sequence[Point], *, episodes: int = 10,
@@ -152,10 +158,8 @@ def robustness_sweep(policy, make_env: Callable[..., object], points: Sequence[P
         finally:
             env.close(raise_if_closed=False)
 
-    done: dict[str, dict] = {}
-    for point in _progress(points, progress):
-        if point.key() not in done:
-            done[point.key()] = run(point.overrides())
+    distinct = {p.key(): p for p in points}  # intensity 0 is one env on every axis
+    done = {key: run(point.overrides()) for key, point in _progress(list(distinct.items()), progress)}
     return [_row(p, done[p.key()]) for p in points]
 
 
@@ -321,7 +325,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     stored.mkdir(parents=True, exist_ok=True)
     done = _stored_points(stored, identity, out)
     todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
-    bar = _progress(list(todo), progress)
+    bar = _progress(list(todo), progress, f"robustness ({backend})")
     for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=devices,
                                             backend=backend):
         point_id = _point_id(identities[key])
@@ -329,18 +333,21 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
         write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})
         bar.update(1)
     bar.close()
-    who = {k: identity[k] for k in ("method", "domain", "task", "seed")}
+    who = {k: identity[k] for k in ("method", "domain", "task", "seed")} | {"backend": backend}
     return [_row(p, done[_point_id(identities[key])], **who) for p, key in zip(points, keys)]
 
 
 # --------------------------------------------------------------------------------- outputs
-CSV_COLUMNS = ("method", "domain", "task", "seed", "axis", "setting", "reference_blend", "value", "mean", "stderr", "episodes")
+CSV_COLUMNS = ("method", "domain", "task", "seed", "backend", "axis", "setting", "reference_blend", "value", "mean",
+               "stderr", "episodes")
 
 
 def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "", num_videos: int = 60) -> dict[str, Path]:
     """``robustness.csv``, ``robustness.md`` (half-score intensity per axis, curves) and
     ``robustness.png`` (one panel per axis, as the report's robustness figure) in ``out``;
-    ``num_videos``: the background axis' b."""
+    ``num_videos``: the background axis' b. Rows of :func:`sweep_agent` name their renderer
+    (``backend``): the csv has it in a column, the table's heading and the figure's title say it;
+    rows of two renderers are refused (compare scores on one renderer only)."""
     import pandas as pd
 
     from dcs_torchrl.report.curves import BLEND_2021, blend_suffix, half_text, half_score_table
@@ -348,6 +355,11 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
     from dcs_torchrl.report.markdown import fmt_score, md_table
     from dcs_torchrl.report.tables import setting_name
 
+    backends = {r.get("backend") for r in rows} - {None}
+    if len(backends) > 1:
+        raise ValueError(f"rows of renderers {sorted(backends)}: scores compare on one renderer only; write each "
+                         "renderer's rows to its own directory.")
+    renderer = RENDERERS.get(next(iter(backends), None), "")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"csv": out / "robustness.csv", "md": out / "robustness.md", "png": out / "robustness.png"}
@@ -365,7 +377,7 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
                   half_text(r), r.paper or "—"] for r in half.itertuples()]
     point_rows = [[r["axis"] + (" (2021 blend)" if r["reference_blend"] else ""), r["setting"], f"{r['value']:g}",
                    fmt_score(r["mean"], r["stderr"]), str(r["episodes"])] for r in rows]
-    text = [f"# Robustness of {title or method}", "",
+    text = [f"# Robustness of {_joined(title or method, renderer)}", "",
             "## Where the score falls to half", "",
             md_table(["axis", "setting", "score at 0", "half at", "paper (top methods)"], half_rows), "",
             "`half at`: the first intensity whose mean return is at most half the return at 0; "
@@ -373,9 +385,13 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
             "## Every point (mean ± s.e. over episodes)", "",
             md_table(["axis", "setting", "intensity", "return", "episodes"], point_rows), ""]
     paths["md"].write_text("\n".join(text))
-    curves_figure(curves, "robustness", paths["png"], note=title, spread="mean ± s.e. over episodes",
+    curves_figure(curves, "robustness", paths["png"], note=_joined(title, renderer), spread="mean ± s.e. over episodes",
                   axes_shown=[AXES[axis] for axis in AXES if any(r["axis"] == axis for r in rows)], num_videos=num_videos)
     return paths
+
+
+def _joined(*parts: str) -> str:
+    return ", ".join(part for part in parts if part)
 
 
 def _render_device(text: str) -> int | str:
@@ -388,7 +404,8 @@ def _render_device(text: str) -> int | str:
                                      "CUDA device (cuda:0, cuda:1, ...).")
 
 
-def main(argv=None) -> dict[str, Path]:
+def _parser() -> argparse.ArgumentParser:
+    """The command's options, each help naming its default."""
     parser = argparse.ArgumentParser(
         prog="python -m dcs_torchrl.robustness",
         description="An agent's score as each distraction grows: one distraction at a time, at each intensity.",
@@ -400,32 +417,46 @@ def main(argv=None) -> dict[str, Path]:
                "another checkpoint (retrained under the same name), is refused: choose another --out.")
     parser.add_argument("agent", help="a shipped agent's name (e.g. sac_rad_cartpole_swingup), an exported agent "
                                       "or a finished training run directory")
-    parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES))
-    parser.add_argument("--intensities", nargs="+", type=float, default=list(QUICK_INTENSITIES), metavar="BETA")
-    parser.add_argument("--setting", default="static", choices=list(SETTINGS))
-    parser.add_argument("--episodes", type=int, default=10, help="episodes per point (the paper: 100)")
+    parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES),
+                        help=f"the distractions swept, each alone (default: {' '.join(AXES)})")
+    parser.add_argument("--intensities", nargs="+", type=float, default=list(QUICK_INTENSITIES), metavar="BETA",
+                        help="the intensities of each axis, in [0, 1] "
+                             f"(default: {' '.join(f'{v:g}' for v in QUICK_INTENSITIES)})")
+    parser.add_argument("--setting", default="static", choices=list(SETTINGS),
+                        help="distractions drawn once an episode (static), changing every step (dynamic), or a "
+                             "curve of each (default: %(default)s)")
+    parser.add_argument("--episodes", type=int, default=10,
+                        help="episodes per point (the paper: 100; default: %(default)s)")
     parser.add_argument("--reference-blend", nargs="?", const="on", default="off", choices=["off", "on", "both"],
                         help="background blend as the authors' 2021 code (accumulates over an env's episodes); "
-                             "'both': a curve of each")
+                             "'both': a curve of each (default: %(default)s)")
     parser.add_argument("--background-dir", default=None, help="DAVIS 2017 JPEGImages/480p or a folder of videos "
                                                               "(default: the embedded stand-in videos)")
     parser.add_argument("--num-videos", type=int, default=None, metavar="B",
                         help="the background axis' b: its first B training videos (default: 60, the paper's, "
                              "or all of a --background-dir that holds fewer)")
-    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1), help="processes, a point each")
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                        help="processes, a point (--backend warp: a batch of points) each "
+                             "(default: 2, or 1 on a one-core machine: here %(default)s)")
     parser.add_argument("--render-devices", nargs="+", default=None, type=_render_device, metavar="DEVICE",
                         help="the GPUs the workers render on, worker i on the (i mod n)-th: EGL device indices or "
                              "cuda:N (default: this process's, MUJOCO_EGL_DEVICE_ID or the first)")
     parser.add_argument("--backend", default="gl", choices=["gl", "warp"],
                         help="gl: one env per point (the reference); warp: several points' episodes at once, in one "
-                             "batched env rendered by MuJoCo Warp (pip install \"dcs-torchrl[warp]\")")
+                             "batched env rendered by MuJoCo Warp (pip install \"dcs-torchrl[warp]\"); the outputs "
+                             "name it: compare scores on one renderer only (default: %(default)s)")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar (default: a bar on stderr)")
+    return parser
+
+
+def main(argv=None) -> dict[str, Path]:
+    args = _parser().parse_args(argv)
     out = Path(args.out) if args.out else Path("robustness") / Path(args.agent).name
     blend = {"off": False, "on": True, "both": "both"}[args.reference_blend]
     points = sweep_points(args.axes, args.intensities, args.setting, blend)
+    held = set((out / "points").glob("*.json"))
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
                        background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress,
@@ -436,7 +467,11 @@ def main(argv=None) -> dict[str, Path]:
                                            f"(seed {rows[0]['seed']}), {args.episodes} episodes per point{videos}",
                           num_videos=_background(args.background_dir, args.num_videos)[1])
     print(paths["md"].read_text().split("## Every point")[0].rstrip())
-    print(f"\n{len(points)} points in {time.time() - started:.0f} s; wrote {', '.join(str(p) for p in paths.values())}")
+    evaluated = len(set((out / "points").glob("*.json")) - held)
+    envs = len({p.key() for p in points})
+    print(f"\n{len(points)} points, {envs} distinct envs (intensity 0 is one env on every axis), {evaluated} evaluated "
+          f"now ({RENDERERS[args.backend]}) in {time.time() - started:.0f} s; "
+          f"wrote {', '.join(str(p) for p in paths.values())}")
     return paths
 
 

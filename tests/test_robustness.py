@@ -5,7 +5,8 @@ import json
 import pytest
 
 from dcs_torchrl.pretrained import load_pretrained, shipped_agents
-from dcs_torchrl.robustness import Point, main, robustness_sweep, sweep_agent, sweep_points
+from dcs_torchrl.robustness import (RENDERERS, Point, _parser, main, robustness_sweep, sweep_agent, sweep_points,
+                                    write_outputs)
 
 AGENT = "sac_rad_cartpole_swingup"
 
@@ -231,6 +232,51 @@ def test_a_changed_env_default_evaluates_every_point_again(tmp_path, evaluated, 
     monkeypatch.setattr(texture_size, "default", 128)  # no override sets it
     sweep(tmp_path, COLOR)
     assert len(evaluated) == 4
+
+
+def test_outputs_name_their_renderer(tmp_path, evaluated, monkeypatch):
+    """The csv has a backend column, the table's heading and the figure's title name the renderer,
+    and rows of two renderers are refused (scores compare on one renderer only)."""
+    import dcs_torchrl.report.figures
+
+    notes = []
+    monkeypatch.setattr(dcs_torchrl.report.figures, "curves_figure", lambda *_, note="", **__: notes.append(note))
+    rows = {}
+    for backend in ("gl", "warp"):
+        rows[backend] = sweep(tmp_path / backend, COLOR, backend=backend)
+        paths = write_outputs(rows[backend], tmp_path / backend, title="the agent")
+        with open(paths["csv"]) as f:
+            assert [r["backend"] for r in csv.DictReader(f)] == [backend] * len(COLOR)
+        assert paths["md"].read_text().splitlines()[0] == f"# Robustness of the agent, {RENDERERS[backend]}"
+        assert notes[-1] == f"the agent, {RENDERERS[backend]}"
+    with pytest.raises(ValueError, match="one renderer only"):
+        write_outputs(rows["gl"] + rows["warp"], tmp_path / "mixed")
+
+
+def test_help_names_every_default():
+    parser = _parser()
+    options = [a for a in parser._actions if a.option_strings and a.dest != "help"]
+    assert options and [a.dest for a in options if "default: " not in a.help] == []
+    text = " ".join(parser.format_help().split())
+    for shown in ("(default: camera color background)", "(default: 0 0.2 0.4 0.6 0.8 1)", "(the paper: 100; default: 10)",
+                  "(default: static)", "(default: gl)", "(default: off)"):
+        assert shown in text
+
+
+def test_the_bar_counts_the_envs_it_evaluates_and_the_last_line_says_so(tmp_path, evaluated, monkeypatch, capsys):
+    """Intensity 0 is one env on every axis: 4 points of 2 axes at 0 and 1 are 3 envs, the bar's total."""
+    import dcs_torchrl.report.figures
+    import dcs_torchrl.robustness
+
+    totals = []
+    progress = dcs_torchrl.robustness._progress
+    monkeypatch.setattr(dcs_torchrl.robustness, "_progress",
+                        lambda items, enabled, desc="": totals.append(len(items)) or progress(items, False, desc))
+    monkeypatch.setattr(dcs_torchrl.report.figures, "curves_figure", lambda *_, **__: None)
+    main([AGENT, "--axes", "camera", "color", "--intensities", "0", "1", "--episodes", "1", "--out", str(tmp_path),
+          "--no-progress"])
+    assert totals == [3] and len(evaluated) == 3
+    assert "4 points, 3 distinct envs (intensity 0 is one env on every axis), 3 evaluated now" in capsys.readouterr().out
 
 
 def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkeypatch):

@@ -2,8 +2,12 @@
 
 One small set is made once per module (cartpole swingup, medium dynamic, the random policy,
 32-pixel frames, episodes cut at 6 steps) and read by most tests; the others make their own.
+tests/test_datasets_export.py: V-D4RL's layouts and Minari; tests/test_datasets_warp.py: the Warp batch.
 """
 import json
+import os
+import re
+import shlex
 import shutil
 from pathlib import Path
 
@@ -14,7 +18,9 @@ from torchrl.data.replay_buffers.samplers import SamplerWithoutReplacement, Slic
 
 import dcs_torchrl as dcs
 from dcs_torchrl.datasets import Mixing, generate, load, load_data, load_vd4rl
-from dcs_torchrl.datasets.metadata import episode_seed
+from dcs_torchrl.datasets import generation, layout
+from dcs_torchrl.datasets.__main__ import main
+from dcs_torchrl.datasets.metadata import episode_seed, episode_seeds
 
 SET = dict(domain="cartpole", task="swingup", benchmark="medium", dynamic=True, image_size=32, max_steps=6)
 EPISODES = 3
@@ -83,17 +89,34 @@ def test_the_metadata_records_every_setting_the_videos_the_policy_and_the_seeds(
     assert record["returns"]["mean"] == pytest.approx(sum(returns) / len(returns))
 
 
+def killed_at(monkeypatch, episode: int):
+    """Makes generation die (as a kill: nothing after the last whole episode kept) when it starts
+    the wave of ``episode``; returns the list of the waves' first episodes run before."""
+    run_wave, started = generation._run_wave, []
+
+    def killed(env, plan, first, count, *args):
+        if first <= episode < first + count:
+            raise KeyboardInterrupt
+        started.append(first)
+        return run_wave(env, plan, first, count, *args)
+
+    monkeypatch.setattr(generation, "_run_wave", killed)
+    return started
+
+
+def test_the_episode_seeds_are_torchrls_chain_so_one_env_and_a_batch_give_episode_k_one_seed():
+    env = dcs.make_env("cartpole", "swingup", height=16, width=16)
+    try:
+        assert episode_seed(5, 0) == 5 and env.set_seed(5) == episode_seed(5, 1)  # what set_seed returns: the next
+        assert env.set_seed(episode_seed(5, 3)) == episode_seed(5, 4)
+    finally:
+        env.close()
+    assert episode_seeds(5, 2, 3) == [episode_seed(5, k) for k in (2, 3, 4)]
+
+
 def test_a_killed_run_resumes_where_it_stopped_and_makes_the_same_set(small_set, tmp_path, monkeypatch):
-    from dcs_torchrl.datasets import generation
-
-    out, run_episode = tmp_path / "killed", generation._run_episode
-
-    def killed_in_episode_2(env, behaviour, mixing, seed, policy, episode, masks):
-        if episode == 2:
-            raise KeyboardInterrupt  # as a kill: nothing after the last whole episode is kept
-        return run_episode(env, behaviour, mixing, seed, policy, episode, masks)
-
-    monkeypatch.setattr(generation, "_run_episode", killed_in_episode_2)
+    out, run_wave = tmp_path / "killed", generation._run_wave
+    killed_at(monkeypatch, 2)
     with pytest.raises(KeyboardInterrupt):
         generate(out, episodes=EPISODES, seed=0, **SET)
     monkeypatch.undo()
@@ -101,7 +124,8 @@ def test_a_killed_run_resumes_where_it_stopped_and_makes_the_same_set(small_set,
     assert sorted(p.name for p in (out / "episodes").iterdir()) == ["000000", "000001"]
     (out / "episodes" / ".000002.tmp-1").mkdir()  # a half-written episode (killed while writing it)
     resumed = []
-    monkeypatch.setattr(generation, "_run_episode", lambda *a: resumed.append(a[5]) or run_episode(*a))
+    monkeypatch.setattr(generation, "_run_wave", lambda env, plan, first, *a: resumed.append(first)
+                        or run_wave(env, plan, first, *a))
     generate(out, episodes=EPISODES, seed=0, **SET)
     assert resumed == [2]  # the written episodes are skipped
     assert not (out / "episodes").exists()  # merged into data/
@@ -129,6 +153,17 @@ def test_a_set_made_with_other_settings_is_refused_naming_each_difference(small_
         generate(out, episodes=EPISODES, seed=1, **SET)
     with pytest.raises(FileExistsError, match="mixing.epsilon"):
         generate(out, episodes=EPISODES, seed=0, mixing=Mixing(epsilon=0.5), **SET)
+    # every setting that changes the data: extending with another is refused, naming it
+    for other, named in ((SET | {"max_steps": 5}, "max_steps: 6 in the set, 5 asked"),
+                         (SET | {"max_steps": None}, "max_steps: 6 in the set, None asked"),
+                         (SET | {"image_size": 24}, "pixels.image_size: 32 in the set, 24 asked"),
+                         (SET | {"render_profile": "fast"}, "pixels.render_profile: 'default' in the set, 'fast' asked"),
+                         (SET | {"backend": "warp"}, "pixels.backend: 'gl' in the set, 'warp' asked"),
+                         (SET | {"masks": True, "backend": "warp"}, "pixels.masks: False in the set, True asked"),
+                         (SET | {"policies": ["random", "random"]}, "policies.1.name: None in the set, 'random' asked"),
+                         (SET | {"action_repeat": 4}, "env.action_repeat: 8 in the set, 4 asked")):
+        with pytest.raises(FileExistsError, match=re.escape(named)):
+            generate(out, episodes=EPISODES + 1, seed=0, **other)
     assert (out / "metadata.json").read_bytes() == before and sorted(p.name for p in out.iterdir()) == ["data", "metadata.json"]
     stranger = tmp_path / "stranger"
     stranger.mkdir()
@@ -171,6 +206,7 @@ def test_the_buffer_is_a_torchrl_replay_buffer_over_memory_mapped_files(small_se
 VD4RL_LAYOUT = {
     "pixels": ((3, 32, 32), torch.float32), ("next", "pixels"): ((3, 32, 32), torch.float32),
     "action": ((1,), torch.float32), ("next", "reward"): ((1,), torch.float32), "is_init": ((), torch.bool),
+    "discount": ((), torch.float32),
     "index": ((), torch.int64), "done": ((1,), torch.bool), "terminated": ((1,), torch.bool),
     "truncated": ((1,), torch.bool), ("next", "done"): ((1,), torch.bool), ("next", "terminated"): ((1,), torch.bool),
     ("next", "truncated"): ((1,), torch.bool), ("state", "position"): ((3,), torch.float32),
@@ -186,13 +222,13 @@ def test_the_vd4rl_layout_matches_what_torchrl_vd4rl_experience_replay_gives(sma
     expected = frames[batch["frame"]].permute(0, 3, 1, 2).float() / 255
     assert torch.equal(batch["pixels"], expected) and torch.equal(batch["is_init"], batch["step"] == 0)
     assert not batch["done"].any()  # V-D4RL's root done: an observation is never a terminal one
+    assert torch.equal(batch["discount"], 1.0 - batch["next", "terminated"].squeeze(-1).float())
     stacked = load(small_set, batch_size=8, frame_stack=3, layout="vd4rl").sample()
     assert stacked["pixels"].shape == (8, 9, 32, 32) and stacked["pixels"].max() <= 1.0
 
 
 def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternate_and_noise_stays_in_bounds(tmp_path):
     from tensordict import TensorDict
-    from torchrl.data import Bounded
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
     from dcs_torchrl.datasets.policies import load_behaviour
@@ -213,13 +249,14 @@ def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternat
             action = agent.agent.policy(TensorDict({"pixels": acted["pixels"][i]}, []))["action"]
             assert torch.allclose(action.double(), acted["action"][i], atol=1e-6)
 
-    spec = Bounded(-1.0, 1.0, shape=(1,), dtype=torch.float64)
-    agent.start_episode(torch.full((84, 84, 3), 128, dtype=torch.uint8))
-    clean = agent.act(spec, Mixing(), torch.Generator().manual_seed(0))
-    assert torch.equal(clean, agent.act(spec, Mixing(), torch.Generator().manual_seed(1)))  # deterministic
-    noisy = torch.stack([agent.act(spec, Mixing(action_noise=5.0), torch.Generator().manual_seed(i)) for i in range(20)])
+    low, high = -torch.ones(1, dtype=torch.float64), torch.ones(1, dtype=torch.float64)
+    stack = agent.start_episode(torch.full((84, 84, 3), 128, dtype=torch.uint8))
+    clean = agent.act(stack, low, high, Mixing(), torch.Generator().manual_seed(0))
+    assert torch.equal(clean, agent.act(stack, low, high, Mixing(), torch.Generator().manual_seed(1)))  # deterministic
+    noisy = torch.stack([agent.act(stack, low, high, Mixing(action_noise=5.0), torch.Generator().manual_seed(i))
+                         for i in range(20)])
     assert noisy.abs().max() <= 1.0 and (noisy.abs() == 1.0).any() and not (noisy == clean).all()
-    uniform = agent.act(spec, Mixing(epsilon=1.0), torch.Generator().manual_seed(3))
+    uniform = agent.act(stack, low, high, Mixing(epsilon=1.0), torch.Generator().manual_seed(3))
     generator = torch.Generator().manual_seed(3)
     torch.rand((), generator=generator)  # the epsilon draw, then the uniform action
     assert torch.equal(uniform, -1 + 2 * torch.rand((1,), generator=generator, dtype=torch.float64))
@@ -228,8 +265,10 @@ def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternat
 def test_bad_requests_fail_naming_the_fix(tmp_path):
     with pytest.raises(ValueError, match="--domain ball_in_cup --task catch"):
         generate(tmp_path / "a", domain="cartpole", task="swingup", episodes=1, policies=["sac_rad_ball_in_cup_catch"])
-    with pytest.raises(ValueError, match="masks"):
+    with pytest.raises(ValueError, match="--masks needs --backend warp"):
         generate(tmp_path / "b", episodes=1, masks=True, **SET)
+    with pytest.raises(ValueError, match="--num-envs 4: a positive integer, with --backend warp"):
+        generate(tmp_path / "b", episodes=1, num_envs=4, **SET)
     with pytest.raises(ValueError, match="--episodes must be an integer >= 1"):
         generate(tmp_path / "c", episodes=0, **SET)
     with pytest.raises(FileNotFoundError, match="neither a directory nor a shipped agent"):
@@ -241,8 +280,6 @@ def test_bad_requests_fail_naming_the_fix(tmp_path):
     with pytest.raises(FileNotFoundError, match="python -m dcs_torchrl.datasets generate"):
         load(tmp_path / "nothing", batch_size=4)
     assert not any(tmp_path.iterdir())  # nothing was written
-    from dcs_torchrl.datasets.__main__ import main
-
     with pytest.raises(SystemExit, match="error: unknown benchmark 'impossible'"):  # the message, no traceback
         main(["generate", "--domain", "cartpole", "--task", "swingup", "--episodes", "1", "--benchmark", "impossible",
               "--out", str(tmp_path / "f")])
@@ -261,25 +298,134 @@ def test_behaviour_cloning_learns_the_sets_actions_and_is_scored_by_the_suites_e
     assert result["episodes"] == 1 and 0.0 <= result["mean"] <= 1000.0  # 10 steps of 100 physics steps, reward <= 1
 
 
-def test_the_export_to_minari_holds_the_episodes(small_set, tmp_path):
-    minari = pytest.importorskip("minari")  # not a dependency: pip install "minari[hdf5]"
-    from dcs_torchrl.datasets.export import export_minari
-
-    dataset = export_minari(small_set, "dcs/cartpole-test-v0", root=tmp_path)
-    assert dataset.total_episodes == EPISODES and dataset.total_steps == EPISODES * SET["max_steps"]
-    episode = next(dataset.iterate_episodes())
-    frames = load_data(small_set)["frames", "pixels"]
-    assert (episode.observations["pixels"] == frames[:SET["max_steps"] + 1].numpy()).all()
-    assert episode.infos["distractions"]["camera"].shape == (SET["max_steps"] + 1, 4)
-    assert isinstance(minari.__version__, str)
-
-
 def test_info_says_what_a_set_holds(small_set, capsys):
-    from dcs_torchrl.datasets.__main__ import main
-
     main(["info", str(small_set)])
     line = capsys.readouterr().out
     assert f"{EPISODES} episodes, {EPISODES * SET['max_steps']} transitions" in line and "(medium, dynamic)" in line
     main(["info", str(small_set), "--json"])
     record = json.loads(capsys.readouterr().out)
     assert record["env"]["benchmark"] == "medium" and "episode_table" not in record
+
+
+def test_vd4rl_image_size_resizes_without_torchvision_as_torchrls_resize_does(small_set):
+    from dcs_torchrl.datasets.loading import ResizePixels
+
+    batch = load_vd4rl(small_set, batch_size=4, image_size=16, sampler=SamplerWithoutReplacement()).sample()
+    assert batch["pixels"].shape == (4, 3, 16, 16) and batch["next", "pixels"].shape == (4, 3, 16, 16)
+    full = load_data(small_set)["frames", "pixels"][batch["frame"]].permute(0, 3, 1, 2).float() / 255
+    # TorchRL's Resize: torchvision's bilinear antialiased resize, which is interpolate's on tensors
+    expected = torch.nn.functional.interpolate(full, size=(16, 16), mode="bilinear", antialias=True)
+    assert torch.equal(batch["pixels"], expected)
+    frame = torch.rand(2, 3, 8, 8)
+    assert torch.equal(ResizePixels(8, in_keys=["pixels"])._apply_transform(frame), frame)  # its own size: unchanged
+    with pytest.raises(ValueError, match="image_size must be a positive integer"):
+        ResizePixels(0, in_keys=["pixels"])
+
+
+def test_an_agent_acts_on_its_own_84_pixel_frames_while_the_set_stores_what_a_64_pixel_env_shows(tmp_path):
+    from tensordict import TensorDict
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    from dcs_torchrl.datasets.policies import load_behaviour
+    from dcs_torchrl.evaluation import torch_threads
+
+    agent = load_behaviour("sac_rad_cartpole_swingup")
+    settings = dict(domain="cartpole", task="swingup", benchmark="medium", dynamic=True)
+    out = tmp_path / "small64"
+    record = generate(out, episodes=2, seed=3, max_steps=3, image_size=64, policies=[agent], **settings)
+    assert record["pixels"]["image_size"] == 64 and record["policies"][0]["frame_stack"] == 3
+    data = load_data(out)
+    transitions, frames = data["transitions"], data["frames", "pixels"]
+    assert frames.shape[1:] == (64, 64, 3)
+    envs = {size: dcs.make_env(**settings, height=size, width=size) for size in (64, 84)}
+    try:
+        with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), torch_threads(1):
+            for k in range(2):
+                rows = transitions[transitions["episode"] == k]
+                tds = {size: (env.set_seed(episode_seed(3, k)), env.reset())[1] for size, env in envs.items()}
+                assert torch.equal(tds[64]["pixels"], frames[rows["first_frame"][0]])
+                seen = [tds[84]["pixels"].permute(2, 0, 1)] * 3
+                for i in range(rows.shape[0]):
+                    action = agent.agent.policy(TensorDict({"pixels": torch.cat(seen[-3:])}, []))["action"]
+                    assert torch.equal(action.double(), rows["action"][i])  # acted on the 84-pixel frames
+                    for size, env in envs.items():
+                        tds[size]["action"] = rows["action"][i]
+                        tds[size] = env.step(tds[size])["next"]
+                    assert torch.equal(tds[64]["pixels"], frames[rows["frame"][i] + 1])  # stored: the 64-pixel env's
+                    seen.append(tds[84]["pixels"].permute(2, 0, 1))
+    finally:
+        for env in envs.values():
+            env.close()
+
+
+def test_resuming_a_mixed_policy_set_gives_each_episode_the_policy_of_its_number(tmp_path, monkeypatch):
+    from dcs_torchrl.datasets.policies import load_behaviour
+
+    policies = [load_behaviour("sac_rad_cartpole_swingup"), "random"]
+    settings = dict(domain="cartpole", task="swingup", episodes=3, max_steps=2, image_size=32, policies=policies)
+    uncut = generate(tmp_path / "uncut", **settings)
+    out = tmp_path / "cut"
+    killed_at(monkeypatch, 1)
+    with pytest.raises(KeyboardInterrupt):
+        generate(out, **settings)
+    monkeypatch.undo()
+    resumed = generate(out, **settings)
+    assert [e["policy"] for e in resumed["episode_table"]] == [0, 1, 0] == [e["policy"] for e in uncut["episode_table"]]
+    transitions = load_data(out)["transitions"]
+    assert torch.equal(transitions["policy"], transitions["episode"] % 2)
+    assert (load_data(out) == load_data(tmp_path / "uncut")).all()
+
+
+def test_a_finished_read_only_set_with_nothing_to_do_succeeds_without_writing(small_set, tmp_path, monkeypatch):
+    out = _copy(small_set, tmp_path)
+    before = {p: (p.stat().st_mtime_ns, p.stat().st_size) for p in out.rglob("*")}
+    real_access = os.access
+    monkeypatch.setattr(generation.os, "access", lambda path, mode: False if Path(path).is_relative_to(out)
+                        else real_access(path, mode))  # as a read-only folder (also where the tests run as root)
+    monkeypatch.setattr(layout, "write_json", lambda *a: pytest.fail("wrote metadata.json"))
+    assert generate(out, episodes=EPISODES, seed=0, **SET)["episodes"] == EPISODES
+    assert generate(out, episodes=1, seed=0, **SET)["episodes"] == EPISODES
+    monkeypatch.setattr(generation, "_run_wave", lambda *a: pytest.fail("simulated before refusing"))
+    with pytest.raises(PermissionError, match=rf"read-only and holds {EPISODES} whole episodes, 5 asked: copy it to a "
+                                              "writable folder"):
+        generate(out, episodes=5, seed=0, **SET)
+    assert before == {p: (p.stat().st_mtime_ns, p.stat().st_size) for p in out.rglob("*")}
+
+
+def test_an_out_naming_a_file_is_refused_with_the_fix(small_set, tmp_path):
+    path = tmp_path / "a_file"
+    path.write_text("mine")
+    command = ["--domain", "cartpole", "--task", "swingup", "--episodes", "1", "--out", str(path)]
+    with pytest.raises(SystemExit, match="--out .*a_file is a file, not a folder: give a new folder's path"):
+        main(["generate", *command])
+    with pytest.raises(SystemExit, match="is a file, not a folder"):
+        main(["export", str(small_set), "--format", "vd4rl-npz", "--out", str(path)])
+    assert path.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_info_on_an_unfinished_set_names_its_whole_episodes_and_the_command_that_resumes_it(small_set, tmp_path,
+                                                                                            monkeypatch, capsys):
+    out = tmp_path / "unfinished"
+    killed_at(monkeypatch, 2)
+    with pytest.raises(KeyboardInterrupt):
+        generate(out, episodes=EPISODES, seed=0, **SET)
+    monkeypatch.undo()
+    main(["info", str(out)])
+    line = capsys.readouterr().out.strip()
+    assert f"unfinished: 2 whole episodes of the {EPISODES} asked" in line and "resume it with: python -m" in line
+    command = shlex.split(line.split("resume it with: ")[1])
+    assert command[:3] == ["python", "-m", "dcs_torchrl.datasets"]
+    main(command[3:] + ["--no-progress"])  # the printed command finishes the set: the uncut run's
+    assert (load_data(out) == load_data(small_set)).all()
+    main(["info", str(out)])
+    assert ": unfinished:" not in capsys.readouterr().out
+
+
+def test_a_second_writer_of_a_set_is_refused_and_leaves_nothing(small_set, tmp_path):
+    out = _copy(small_set, tmp_path)
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    with layout.writing(out):  # another run holds the set (flock: per open file, so this process counts as another)
+        with pytest.raises(layout.SetBusyError, match="being written by another generate run .* wait for that run to "
+                                                      "end, then run this command again"):
+            generate(out, episodes=EPISODES + 1, seed=0, **SET)
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before  # no temporary folder left

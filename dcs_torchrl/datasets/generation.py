@@ -113,8 +113,15 @@ class _Plan:
         env = make_env(self.settings.domain, self.settings.task, expose_distractions=True, pixels_only=False,
                        height=size, width=size, render_profile=profile, **scene_options(self.settings), **batch)
         if self.agent_size is not None:  # the agents' frames: the same scene, rendered again at their size
-            env.append_transform(RenderPixels(self.agent_size, self.agent_size, self.settings.camera_id, profile=profile,
-                                              out_keys=[_AGENT_PIXELS]))
+            render = RenderPixels(self.agent_size, self.agent_size, self.settings.camera_id, profile=profile,
+                                  out_keys=[_AGENT_PIXELS])
+            # the larger render first: the physics' one render context is then made at its size, and
+            # each render gives the frame an env of its size alone gives (test_datasets.py)
+            first = next(i for i, t in enumerate(env.transform) if isinstance(t, RenderPixels))
+            if self.agent_size > size:
+                env.transform.insert(first, render)
+            else:
+                env.append_transform(render)
         return env
 
 

@@ -103,8 +103,11 @@ def export_minari(path: str | os.PathLike, dataset_id: str, *, root: str | os.Pa
     policies = ", ".join(p["name"] for p in record["policies"])
     with _datasets_root(root), warnings.catch_warnings():
         # judged: Minari warns that no Gymnasium env spec is given (the suite's envs are TorchRL envs;
-        # the description holds every setting to rebuild one with make_env)
-        warnings.filterwarnings("ignore", message=r"(`eval_env` is set to None|env_spec is None)", category=UserWarning)
+        # the description holds every setting to rebuild one with make_env), and that no author,
+        # e-mail or code link is (the description names the suite's version, which is the code)
+        warnings.filterwarnings("ignore", message=r"(`eval_env` is set to None|env_spec is None|`code_permalink` is set "
+                                                  r"to None|`author` is set to None|`author_email` is set to None)",
+                                category=UserWarning)
         return minari.create_dataset_from_buffers(
             dataset_id, buffers, observation_space=observation_space, action_space=action_space,
             algorithm_name=policies, description=json.dumps({k: v for k, v in record.items() if k != "episode_table"}),

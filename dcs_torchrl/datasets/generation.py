@@ -350,9 +350,9 @@ def generate(out: str | os.PathLike, *, domain: str, task: str, episodes: int,
             if not (out / layout.METADATA).is_file():
                 layout.write_json(out / layout.METADATA, _record(record, [], None, asked))
             done = layout.stored_episodes(out)
-            _write_episodes(out, env, plan, [k for k in range(episodes) if k not in done], behaviours, mixing, seed,
+            handed, env = env, None  # _write_episodes closes it
+            _write_episodes(out, handed, plan, [k for k in range(episodes) if k not in done], behaviours, mixing, seed,
                             progress, episodes)
-            env = None  # closed by _write_episodes
             table = layout.merge_episodes(out, max(episodes, len(layout.episode_table(out))))
             result = _record(record, table, layout.load_data(out), asked)
             layout.write_json(out / layout.METADATA, result)
@@ -375,6 +375,8 @@ def _waves(todo: list[int], size: int) -> list[tuple[int, int]]:
 
 def _write_episodes(out: Path, env, plan: _Plan, todo: list[int], behaviours, mixing: Mixing, seed: int,
                     progress: bool, episodes: int) -> None:
+    """Makes and writes the episodes ``todo`` wave by wave in ``env`` (``None`` where there is none
+    to make), which it closes."""
     if not todo:
         if env is not None:
             env.close()

@@ -2,14 +2,18 @@
 
     python benchmarks/dataset_speed.py --episodes 10 --policy sac_rad_cartpole_swingup random \\
         --benchmark medium --dynamic
+    python benchmarks/dataset_speed.py --episodes 100 --policy sac_rad_cartpole_swingup --backend gl warp \\
+        --num-envs 16 --benchmark medium --dynamic        # the GL env and the Warp batch, side by side
     python benchmarks/dataset_speed.py --set data/cartpole_medium_expert   # an existing set: sizes and sampling
 
 Generates ``--episodes`` episodes of cartpole swingup (``--domain``, ``--task``) with each
-``--policy`` into a temporary folder (the whole ``generate`` call timed: the env's and the agent's
-construction included), then for each set: its bytes on disk per transition (every file of the set,
-frames included), the time to open it as a replay buffer (``dcs_torchrl.datasets.load``) and the
-median time to sample a batch of ``--batch-size`` (256): 3 stacked uint8 frames in the set's own
-layout, single float frames in V-D4RL's. Prints a markdown table and the CPU model.
+``--policy`` on each ``--backend`` (``warp``: ``--num-envs`` envs in one batch) into a temporary
+folder (the whole ``generate`` call timed: the env's and the agent's construction included), then
+for each set: its bytes on disk per transition (every file of the set, frames included), the time to
+open it as a replay buffer (``dcs_torchrl.datasets.load``) and the median time to sample a batch of
+``--batch-size`` (256): 3 stacked uint8 frames in the set's own layout, single float frames in
+V-D4RL's. With two backends it prints the generation's speed-up of the Warp batch over the GL env
+(the same episodes). Prints a markdown table and the CPU model.
 """
 from __future__ import annotations
 
@@ -66,6 +70,9 @@ def main() -> None:
     parser.add_argument("--benchmark", default="medium")
     parser.add_argument("--dynamic", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--max-steps", type=int, default=None, help="cut episodes (a quick check of the script)")
+    parser.add_argument("--backend", nargs="+", default=["gl"], choices=["gl", "warp"])
+    parser.add_argument("--num-envs", type=int, default=16, help="--backend warp: envs of the batch")
     parser.add_argument("--batch-size", type=int, default=256)
     parser.add_argument("--rounds", type=int, default=20, help="samples timed per set and layout")
     args = parser.parse_args()
@@ -81,13 +88,20 @@ def main() -> None:
         return
     with tempfile.TemporaryDirectory() as tmp:
         for policy in args.policy:
-            out = Path(tmp) / policy
-            start = time.perf_counter()
-            generate(out, domain=args.domain, task=args.task, episodes=args.episodes, policies=[policy],
-                     benchmark=args.benchmark, dynamic=args.dynamic)
-            seconds = time.perf_counter() - start
-            label = f"{args.domain} {args.task} {args.benchmark}{' dynamic' if args.dynamic else ''}, {policy}"
-            print(row(out, label, seconds, args.batch_size, args.rounds), flush=True)
+            seconds = {}
+            for backend in args.backend:
+                out = Path(tmp) / f"{Path(policy).name}-{backend}"
+                batch = {"backend": backend, "num_envs": args.num_envs} if backend == "warp" else {}
+                start = time.perf_counter()
+                generate(out, domain=args.domain, task=args.task, episodes=args.episodes, policies=[policy],
+                         benchmark=args.benchmark, dynamic=args.dynamic, max_steps=args.max_steps, **batch)
+                seconds[backend] = time.perf_counter() - start
+                label = (f"{args.domain} {args.task} {args.benchmark}{' dynamic' if args.dynamic else ''}, {policy}, "
+                         + (f"warp, {args.num_envs} envs" if backend == "warp" else "gl"))
+                print(row(out, label, seconds[backend], args.batch_size, args.rounds), flush=True)
+            if len(seconds) == 2:
+                print(f"generation, {policy}: the Warp batch {seconds['gl'] / seconds['warp']:.2f}x the GL env "
+                      "(whole commands)", flush=True)
 
 
 if __name__ == "__main__":

@@ -2,14 +2,24 @@
 
     python benchmarks/batched_speed.py [--device cpu|cuda] [--sizes 1 4 16 64 256] [--rounds 3]
         [--seconds 4] [--tasks cartpole:swingup cheetah:run] [--presets none medium]
+    python benchmarks/batched_speed.py --physics-only [--sizes 64] [--tasks ...]
 
 All in, as a user steps an env: distractions (``medium`` is the dynamic medium preset), uint8
 pixels in a torch tensor, TorchRL's ``step`` with ``step_and_maybe_reset``, a random action per
 env. Every env of a task and preset is built once, then they are timed in interleaved rounds (each
 for about ``--seconds``), and the median round is reported, so that machine noise hits them alike;
 the ratios are within this run. ``--device cuda`` renders the batch on the GPU (sizes up to 4096
-make sense there) and prints the GPU model; the render's share of a batched step is printed beside
-the physics' (the rest: TorchRL's step and the copies). The GL rows use Mesa's default threads.
+make sense there) and prints the GPU model. Beside each batch: where its step's time goes, as shares
+of the wall time: the physics (MuJoCo's C over threads and the task over arrays), the distractions'
+``step_scene`` with the copy of each world's scene into the render's arrays, and the render (its
+threads run beside the next part's physics, so the shares can add up to more than 100%); the rest is
+TorchRL's step and the output copies. The GL rows use Mesa's default threads.
+
+``--physics-only``: no render, no distractions: N dm_control envs of each task stepped with random
+actions (episodes reset as they end), env-agent steps/s of today's per-env path (dm_control's
+``Environment.step`` action-repeat times, env after env, as :class:`~dcs_torchrl.batched.BatchedSuiteEnv`
+steps a task that is not over arrays) beside :class:`~dcs_torchrl.batch_physics.BatchPhysics` (MuJoCo's
+C, the task over arrays) on one thread and on every core, with the state observations computed.
 """
 from __future__ import annotations
 
@@ -19,13 +29,18 @@ import os
 import statistics
 import time
 
+import numpy as np
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import torch  # noqa: E402
 from machine import cpu_model  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
+from dcs_torchrl.batch_physics import BatchPhysics, physics_threads  # noqa: E402
 from dcs_torchrl.batched import BatchedSuiteEnv  # noqa: E402
+from dcs_torchrl.presets import action_repeat  # noqa: E402
+from dcs_torchrl.task_arrays import TASKS, task_arrays  # noqa: E402
 
 PRESETS = {"none": dict(benchmark="none"), "medium": dict(benchmark="medium", dynamic=True)}
 
@@ -38,13 +53,14 @@ class Timed:
         self.env.set_seed(0)
         self.td = env.reset()
         self.n = max(1, env.batch_size.numel())
-        self.render_s = self.total_s = 0.0
+        self.render_s = self.total_s = self.physics_s = self.scene_s = 0.0
         self.run(0.0)  # one step: everything built and compiled
 
     def run(self, seconds: float) -> float:
         env, steps, start = self.env, 0, time.perf_counter()
         renderers = getattr(env, "renderers", None)
         render_before = _render_seconds(renderers)
+        seconds_before = dict(getattr(env, "seconds", {}))
         while True:
             self.td.set("action", env.action_spec.rand())
             _, self.td = env.step_and_maybe_reset(self.td)
@@ -53,6 +69,9 @@ class Timed:
             if elapsed >= seconds:
                 break
         self.render_s += _render_seconds(renderers) - render_before
+        if seconds_before:
+            self.physics_s += env.seconds["physics"] - seconds_before["physics"]
+            self.scene_s += env.seconds["scene"] - seconds_before["scene"]
         self.total_s += elapsed
         return steps * self.n / elapsed
 
@@ -70,7 +89,11 @@ def main():
     parser.add_argument("--tasks", nargs="+", default=["cartpole:swingup", "cheetah:run"])
     parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=list(PRESETS))
     parser.add_argument("--no-gl", action="store_true", help="leave out the GL rows (a GPU box without EGL)")
+    parser.add_argument("--physics-only", action="store_true", help="no render: today's per-env physics beside "
+                        "BatchPhysics (MuJoCo's C over threads, the task over arrays)")
     args = parser.parse_args()
+    if args.physics_only:
+        return physics_only(args)
     cuda = torch.device(args.device).type == "cuda"
     sizes = args.sizes or ([1, 16, 64, 256, 1024, 4096] if cuda else [1, 4, 16, 64, 256])
     if min(sizes) < 1 or args.rounds < 1 or args.seconds <= 0:
@@ -97,16 +120,87 @@ def main():
                     rates[name].append(timed.run(args.seconds))
             base = statistics.median(rates["one GL env"]) if "one GL env" in rates else None
             print(f"\n{domain} {task}, {preset}{' dynamic' if preset != 'none' else ''}")
-            print("| path | agent steps/s | x one GL env | render share |")
-            print("|---|---:|---:|---:|")
+            print("| path | agent steps/s | x one GL env | physics | step_scene + copy | render |")
+            print("|---|---:|---:|---:|---:|---:|")
             for name, values in rates.items():
                 rate = statistics.median(values)
                 ratio = f"{rate / base:.2f}" if base else "n/a"
                 timed = paths[name]
-                share = f"{timed.render_s / timed.total_s:.0%}" if isinstance(timed.env, BatchedSuiteEnv) else ""
-                print(f"| {name} | {rate:.0f} ({min(values):.0f}-{max(values):.0f}) | {ratio} | {share} |")
+                shares = " | " * 2
+                if isinstance(timed.env, BatchedSuiteEnv):
+                    shares = " | ".join(f"{part / timed.total_s:.0%}"
+                                        for part in (timed.physics_s, timed.scene_s, timed.render_s))
+                print(f"| {name} | {rate:.0f} ({min(values):.0f}-{max(values):.0f}) | {ratio} | {shares} |")
             for timed in paths.values():
                 timed.env.close()
+
+
+class PhysicsTimed:
+    """N dm_control envs of one task stepped by one path; ``run(seconds)`` returns env-agent steps/s."""
+
+    def __init__(self, domain: str, task: str, n: int, threads: int | None):
+        from dm_control import suite
+
+        self.envs = [suite.load(domain, task, task_kwargs={"random": i}) for i in range(n)]
+        self.k = action_repeat(domain, task)
+        for env in self.envs:
+            env.reset()
+        spec = self.envs[0].action_spec()
+        self.low, self.high = spec.minimum, spec.maximum
+        self.rng = np.random.default_rng(0)
+        self.batch = None
+        if threads is not None:
+            arrays = task_arrays(domain, task, self.envs[0].task)
+            self.batch = BatchPhysics(self.envs, arrays, self.k, threads)
+        self.all = np.arange(n)
+        self.run(0.0)
+
+    def step(self) -> None:
+        actions = self.rng.uniform(self.low, self.high, (len(self.envs), len(self.low)))
+        if self.batch is None:  # today's per-env path: dm_control's step, action-repeat times
+            for env, action in zip(self.envs, actions):
+                for _ in range(self.k):
+                    if env.step(action).last():
+                        env.reset()
+                        break
+            return
+        _, ended, _ = self.batch.step(self.all, actions, observe=True)
+        for i in np.flatnonzero(ended):
+            self.envs[i].reset()
+            self.batch.after_reset(i)
+
+    def run(self, seconds: float) -> float:
+        steps, start = 0, time.perf_counter()
+        while True:
+            self.step()
+            steps += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= seconds:
+                return steps * len(self.envs) / elapsed
+
+
+def physics_only(args) -> None:
+    sizes = args.sizes or [64]
+    cores = physics_threads()
+    print(f"{cpu_model()}; {cores} cores; {args.rounds} rounds of ~{args.seconds:g} s, interleaved; median "
+          "env-agent steps/s (ratio to today's per-env path); no render, random actions")
+    print("| task (action repeat) | N | dm_control step, env by env | BatchPhysics, 1 thread | "
+          f"BatchPhysics, {cores} threads |")
+    print("|---|--:|--:|--:|--:|")
+    for spec in args.tasks:
+        domain, task = spec.split(":")
+        if (domain, task) not in TASKS:
+            raise SystemExit(f"{domain}:{task} is not over arrays; choose among {[':'.join(t) for t in TASKS]}")
+        for n in sizes:
+            paths = {"today": PhysicsTimed(domain, task, n, None), "1": PhysicsTimed(domain, task, n, 1),
+                     "all": PhysicsTimed(domain, task, n, cores)}
+            rates = {name: [] for name in paths}
+            for _ in range(args.rounds):
+                for name, timed in paths.items():
+                    rates[name].append(timed.run(args.seconds))
+            base = statistics.median(rates["today"])
+            cells = [f"{statistics.median(v):.0f} ({statistics.median(v) / base:.1f}x)" for v in rates.values()]
+            print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} |")
 
 
 if __name__ == "__main__":

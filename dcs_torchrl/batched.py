@@ -5,8 +5,11 @@ GL env's physics, task and distractions without its render: a
 ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False, frame_skip=k), Compose(CameraDistraction,
 ColorDistraction, BackgroundDistraction))``, seeded as TorchRL's batched envs seed their workers (env
 ``i`` gets the seed env ``i - 1``'s ``set_seed`` returns). A reset goes through that env's own TorchRL
-``reset``; a step runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does, then
-each distraction's :meth:`~dcs_torchrl.distractions.base.DistractionTransform.step_scene`, the
+``reset`` (the task's ``initialize_episode``). A step of the paper's six tasks
+(:data:`dcs_torchrl.task_arrays.TASKS`) runs every env's physics in MuJoCo's C over threads and the
+task's reward and observation over arrays (:class:`~dcs_torchrl.batch_physics.BatchPhysics`); any other
+task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then each
+distraction's :meth:`~dcs_torchrl.distractions.base.DistractionTransform.step_scene`, the
 transform's own step. So env ``i``'s rewards, resets, terminations and distraction draws are those of
 env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
 (``tests/test_batched.py``). Then the N worlds' poses, colours and skies go, as whole arrays, to one
@@ -18,6 +21,7 @@ the envs they name only; the others continue their episodes.
 from __future__ import annotations
 
 import re
+import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -31,8 +35,10 @@ from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
 from dcs_torchrl._scene import locate
+from dcs_torchrl.batch_physics import BatchPhysics
 from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
+from dcs_torchrl.task_arrays import task_arrays
 from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, skybox_faces
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
@@ -126,8 +132,8 @@ class _World:
         self.physics = locate(self.distractions[0], strict=True).physics if self.distractions else self.dm.physics
 
     def step(self, action: np.ndarray):
-        """``frame_skip`` dm_control steps (stopping at the episode's end), as ``DMControlEnv._step``;
-        then each distraction's step. Returns ``(observation, reward, terminated, truncated)``."""
+        """``frame_skip`` dm_control steps (stopping at the episode's end), as ``DMControlEnv._step``
+        (the distractions' step follows, by the batch). Returns ``(observation, reward, terminated, truncated)``."""
         reward = 0
         terminated = truncated = False
         for _ in range(self.frame_skip):
@@ -140,8 +146,6 @@ class _World:
                 else:
                     terminated = True
                 break
-        for t in self.distractions:
-            t.step_scene()
         return step.observation, reward, terminated, truncated
 
 
@@ -169,11 +173,15 @@ class BatchedSuiteEnv(EnvBase):
         groups (sequence of int, optional): the sizes of consecutive groups of ``envs`` that
             :meth:`set_seed` seeds apart, each as a batch of its own (``None``: one group). So each
             group's envs run the episodes a batch of that group's envs alone runs.
+        physics_threads (int, optional): threads the physics of a task of
+            :data:`dcs_torchrl.task_arrays.TASKS` run on (``None``: the cores this process may use);
+            other tasks step through dm_control's Python, env by env (:attr:`physics` is ``None``).
     """
 
     def __init__(self, envs: Sequence[TransformedEnv], *, height: int = 84, width: int = 84, camera_id: int = 0,
                  device="cpu", pixels_only: bool = True, masks: bool = False, render_profile: str = "default",
-                 render_chunks: int | None = None, groups: Sequence[int] | None = None):
+                 render_chunks: int | None = None, groups: Sequence[int] | None = None,
+                 physics_threads: int | None = None):
         if render_profile not in WARP_PROFILES:
             raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
                              f"{sorted(WARP_PROFILES)}.")
@@ -224,9 +232,23 @@ class BatchedSuiteEnv(EnvBase):
         self._done = np.zeros((n, 3), bool)  # terminated, truncated, done
         self._states = {key: np.zeros(spec.shape, torch.empty((), dtype=spec.dtype).numpy().dtype)
                         for key, spec in self.observation_spec.items(True, True) if key in self._distraction_keys}
+        self.physics = self._batch_physics(physics_threads)
+        #: seconds spent stepping: ``"physics"`` (the envs' physics and task), ``"scene"`` (the
+        #: distractions' step and the copy of each world's scene for the render), for the benchmarks
+        self.seconds = {"physics": 0.0, "scene": 0.0}
         self.is_closed = False
 
     # ------------------------------------------------------------------ set-up
+    def _batch_physics(self, threads: int | None) -> BatchPhysics | None:
+        """The envs' physics stepped in MuJoCo's C and their task over arrays, where the task is one of
+        :data:`~dcs_torchrl.task_arrays.TASKS`; ``None`` (dm_control's step, env by env) otherwise."""
+        first = self._worlds[0].base
+        arrays = task_arrays(first.env_name, first.task_name, self._worlds[0].dm.task)
+        if arrays is None or any(task_arrays(w.base.env_name, w.base.task_name, w.dm.task) is not arrays
+                                 for w in self._worlds):
+            return None
+        return BatchPhysics([w.dm for w in self._worlds], arrays, [w.frame_skip for w in self._worlds], threads)
+
     def _set_specs(self, env: TransformedEnv, height: int, width: int) -> None:
         n, device = self.num_envs, self.device
         observation = env.observation_spec.clone()
@@ -309,14 +331,14 @@ class BatchedSuiteEnv(EnvBase):
         else:
             self._pending.append(self._pool.submit(render))
 
-    def _each_world(self, indices, act) -> None:
-        """``act(i)`` for the worlds ``indices``, chunk by chunk, each chunk rendered once its worlds
-        are done (every chunk is rendered, so that every env's frame is its current scene)."""
-        todo = set(indices)
+    def _each_chunk(self, indices, act) -> None:
+        """``act(worlds)`` for the worlds ``indices`` of each chunk in turn (a list of indices, maybe
+        empty), each chunk rendered once its worlds are done (every chunk is rendered, so that every
+        env's frame is its current scene), while the next chunk's worlds are acted on."""
+        todo = np.zeros(self.num_envs, bool)
+        todo[list(indices)] = True
         for chunk, span in enumerate(self._chunks):
-            for i in span:
-                if i in todo:
-                    act(i)
+            act([i for i in span if todo[i]])
             self._render_chunk(chunk)
         pending, self._pending = self._pending, []
         for future in pending:
@@ -354,14 +376,30 @@ class BatchedSuiteEnv(EnvBase):
         indices = range(self.num_envs) if partial is None else partial.reshape(self.num_envs).nonzero().flatten().tolist()
         self._reward[:] = 0.0
 
-        def step(i: int) -> None:
-            observation, reward, terminated, truncated = self._worlds[i].step(actions[i])
-            self._reward[i] = reward
-            self._done[i] = (terminated, truncated, terminated or truncated)
-            self._read(i, observation)
-            self._gather(i)
+        def step(worlds: list[int]) -> None:
+            start = time.perf_counter()
+            fast = [] if self.physics is None else [i for i in worlds if not self.physics.over(i)]
+            if fast:  # MuJoCo's C over threads, the task over arrays, then each world's distractions
+                reward, truncated, observation = self.physics.step(fast, actions[fast], observe=not self.pixels_only)
+                self._reward[fast, 0] = reward
+                self._done[fast] = np.stack([np.zeros_like(truncated), truncated, truncated], axis=-1)
+                for key in self._state_keys if observation is not None else ():
+                    self._obs[key][fast] = observation[key].reshape(self._obs[key][fast].shape)
+            for i in worlds if self.physics is None else sorted(set(worlds) - set(fast)):
+                observation, reward, terminated, truncated = self._worlds[i].step(actions[i])
+                self._reward[i] = reward
+                self._done[i] = (terminated, truncated, terminated or truncated)
+                self._read(i, observation)
+            physics = time.perf_counter()
+            for i in worlds:
+                for t in self._worlds[i].distractions:
+                    t.step_scene()
+                self._read_states(i)
+                self._gather(i)
+            self.seconds["physics"] += physics - start
+            self.seconds["scene"] += time.perf_counter() - physics
 
-        self._each_world(indices, step)
+        self._each_chunk(indices, step)
         return self._output(with_reward=True)
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
@@ -370,15 +408,18 @@ class BatchedSuiteEnv(EnvBase):
         if tensordict is not None and "_reset" in tensordict.keys():
             indices = tensordict.get("_reset").reshape(self.num_envs, -1).any(-1).nonzero().flatten().tolist()
 
-        def reset(i: int) -> None:
-            observation = self._worlds[i].env.reset()  # the env's own reset: physics, task, distractions
-            self._done[i] = False
-            for key in self._state_keys:
-                self._obs[key][i] = observation.get(key).numpy()
-            self._read_states(i)
-            self._gather(i)
+        def reset(worlds: list[int]) -> None:
+            for i in worlds:
+                observation = self._worlds[i].env.reset()  # the env's own reset: physics, task, distractions
+                if self.physics is not None:
+                    self.physics.after_reset(i)
+                self._done[i] = False
+                for key in self._state_keys:
+                    self._obs[key][i] = observation.get(key).numpy()
+                self._read_states(i)
+                self._gather(i)
 
-        self._each_world(indices, reset)
+        self._each_chunk(indices, reset)
         return self._output(with_reward=False)
 
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
@@ -407,5 +448,7 @@ class BatchedSuiteEnv(EnvBase):
         self.is_closed = True
         if self._pool is not None:
             self._pool.shutdown()
+        if self.physics is not None:
+            self.physics.close()
         for world in self._worlds:
             world.env.close()

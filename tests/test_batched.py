@@ -89,6 +89,67 @@ def test_each_env_of_the_batch_runs_the_episodes_of_one_gl_env_with_its_seed(ext
     assert any(b["done"].any() for b in batched)
 
 
+#: the six tasks over arrays, each with one of the settings above; action repeat 300 does not divide the
+#: 1000 control steps of an episode: its last agent step stops at the time limit (4 agent steps)
+OVER_ARRAYS = [("ball_in_cup", "catch", {}), ("cartpole", "swingup", {"dynamic": False, "benchmark": "hard"}),
+               ("cheetah", "run", {"background_blend": 0.5, "reference_blend": True}), ("finger", "spin", {}),
+               ("reacher", "easy", {"dynamic": False, "benchmark": "hard"}),
+               ("walker", "walk", {"background_blend": 0.5, "reference_blend": True})]
+
+
+@pytest.mark.parametrize("domain, task, extra", OVER_ARRAYS, ids=[f"{d}-{t}" for d, t, _ in OVER_ARRAYS])
+def test_each_task_over_arrays_runs_the_episodes_of_one_gl_env_with_its_seed(domain, task, extra):
+    """The physics in MuJoCo's C and the task over arrays (BatchPhysics) give each env the states, rewards,
+    observations, episode ends and distraction draws of one GL env (dm_control's step) with its seed."""
+    settings = {**SETTINGS, "action_repeat": 300, "height": 24, "width": 24, **extra}
+    n, steps = 2, 9  # two episodes of 4 agent steps, a reset, one more step
+    env = make_env(domain, task, num_envs=n, backend="warp", device=DEVICE, **settings)
+    assert env.physics is not None  # the task is stepped over arrays
+    spec = env.action_spec
+    actions = (torch.rand(steps, *spec.shape, generator=torch.Generator().manual_seed(1)) * 2 - 1).double()
+    env.set_seed(5)
+    td = env.reset()
+    keys = [k for k in td.keys(True, True) if k not in ("pixels",)]
+    batched = [td.select(*keys).clone()]
+    for action in actions:
+        out, td = env.step_and_maybe_reset(td.set("action", action))
+        batched.append(out["next"].exclude("pixels").clone())
+    env.close()
+    assert [b["truncated"].all().item() for b in batched] == [False] * 4 + [True] + [False] * 3 + [True] + [False]
+    factory = functools.partial(make_env, domain, task, **settings)
+    for i, seed in enumerate(_seeds(5, n, factory)):
+        alone = factory()
+        alone.set_seed(seed)
+        td = alone.reset()
+        _assert_same(batched[0][i], td.select(*keys), f"env {i}, reset")
+        for t, action in enumerate(actions, start=1):
+            td = alone.step(td.set("action", action[i]))["next"]
+            _assert_same(batched[t][i], td.exclude("pixels"), f"env {i}, step {t}")
+            if td["done"].item():
+                td = alone.reset()
+        alone.close()
+    assert any(b["reward"].any() for b in batched[1:])
+
+
+def test_a_task_not_over_arrays_keeps_dm_controls_step_and_its_episodes():
+    settings = {**SETTINGS, "action_repeat": 300, "height": 24, "width": 24}
+    env = make_env("hopper", "stand", num_envs=2, backend="warp", device=DEVICE, seed=2, **settings)
+    assert env.physics is None
+    actions = _actions(5, 2).expand(5, 2, 4)
+    td, batched = env.reset(), []
+    for action in actions:
+        out, td = env.step_and_maybe_reset(td.set("action", action))
+        batched.append(out["next"].exclude("pixels").clone())
+    env.close()
+    alone = make_env("hopper", "stand", seed=2, **settings)
+    td = alone.reset()
+    for t, action in enumerate(actions[:, 0]):
+        td = alone.step(td.set("action", action))["next"]
+        _assert_same(batched[t][0], td.exclude("pixels"), f"step {t}")
+        if td["done"].item():
+            td = alone.reset()
+
+
 def test_the_batch_equals_parallel_suite_env_seeded_alike():
     n, steps = 2, EPISODE + 2
     actions = _actions(steps, n)

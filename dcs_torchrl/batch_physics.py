@@ -1,0 +1,159 @@
+"""BatchPhysics: the control steps of N dm_control envs in MuJoCo's C, over threads, their tasks over arrays.
+
+A dm_control ``Environment.step(action)`` runs, in Python: the task's ``before_step`` (the action into
+``data.ctrl``), ``physics.step(n_sub_steps)`` (MuJoCo's "legacy" step: ``mj_step2``, ``mj_step`` for the
+other substeps, ``mj_step1``, so that the data's positions and velocities are those of the new state), the
+task's ``after_step``, ``get_reward``, ``get_observation`` and the time limit. For a task of
+:data:`dcs_torchrl.task_arrays.TASKS` this module does the same: each env's MuJoCo calls on its own data
+(``mj_step2`` / ``mj_step`` / ``mj_step1`` release the GIL, so the envs' physics run on every core, in
+contiguous parts of the batch, one thread each), each control step's :class:`TaskArrays` fields recorded
+into arrays, then the rewards and the last step's observation computed over all the envs at once. The
+states, rewards, observations and episode ends are dm_control's, bit for bit (``tests/test_batched.py``).
+
+The time limit is the dm_control env's own count (its ``_step_count``, ``_step_limit`` and
+``_reset_next_step``, kept as ``Environment.step`` keeps them), so each env stays a dm_control env that
+its own ``reset`` (the task's ``initialize_episode``) and ``step`` continue exactly.
+"""
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import mujoco
+import numpy as np
+from dm_control.rl.control import PhysicsError
+
+from dcs_torchrl.task_arrays import Ids, TaskArrays
+
+__all__ = ["BatchPhysics", "physics_threads"]
+
+
+def physics_threads() -> int:
+    """The threads :class:`BatchPhysics` steps a batch's physics in by default: the cores this process may use."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+class BatchPhysics:
+    """The physics and task of N dm_control envs of one task, stepped together.
+
+    Args:
+        dm_envs (sequence of dm_control ``Environment``): the envs, each with its own physics (the
+            suite's envs of one batch), one task.
+        arrays (TaskArrays): the task over arrays (:func:`dcs_torchrl.task_arrays.task_arrays`).
+        frame_skip (int or sequence of int): control steps per agent step (the action repeat), of all
+            the envs or of each.
+        threads (int, optional): threads the physics run on (``None``: :func:`physics_threads`).
+    """
+
+    def __init__(self, dm_envs: Sequence, arrays: TaskArrays, frame_skip: int | Sequence[int],
+                 threads: int | None = None):
+        self.envs = list(dm_envs)
+        self.arrays = arrays
+        n = len(self.envs)
+        self.frame_skips = np.broadcast_to(np.asarray(frame_skip, dtype=np.int64), (n,)).copy()
+        self.frame_skip = int(self.frame_skips.max())
+        threads = physics_threads() if threads is None else threads
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ValueError(f"physics_threads must be a positive integer (or None), got {threads!r}.")
+        self.threads = min(threads, n)
+        first = self.envs[0].physics
+        self.ids = Ids(first.model.ptr)
+        self._sub_steps = [int(env._n_sub_steps) for env in self.envs]
+        self._rk4 = [env.physics.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 for env in self.envs]
+        # per env: its MjModel, MjData, the data arrays recorded, its warning counters
+        self._models = [env.physics.model.ptr for env in self.envs]
+        self._datas = [env.physics.data.ptr for env in self.envs]
+        self._sources = [[getattr(data, f) for f in arrays.fields] for data in self._datas]
+        self._warnings = [data.warning.number for data in self._datas]
+        self.record = {f: np.zeros((self.frame_skip, n, *np.shape(getattr(self._datas[0], f))), np.float64)
+                       for f in arrays.fields}
+        self._record = [self.record[f] for f in arrays.fields]
+        self.model = {f: np.zeros((n, *np.shape(getattr(first.model, f))), np.float64) for f in arrays.model_fields}
+        for i in range(n):
+            self.after_reset(i)
+        self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="dcs-physics") if self.threads > 1 else None
+
+    def after_reset(self, i: int) -> None:
+        """Env ``i`` was reset (its task drew a new episode): read the model fields its task may have set."""
+        model = self.envs[i].physics.model
+        for f, values in self.model.items():
+            values[i] = getattr(model, f)
+
+    def over(self, i: int) -> bool:
+        """Whether env ``i``'s episode has ended (dm_control resets it on its next step)."""
+        return bool(self.envs[i]._reset_next_step)
+
+    def step(self, indices: np.ndarray, actions: np.ndarray, observe: bool = True):
+        """One agent step (``frame_skip`` control steps, fewer where an episode reaches its time limit) of
+        the envs ``indices`` (none of them :meth:`over`), ``actions[i]`` applied to env ``indices[i]``.
+
+        Returns ``(reward, truncated, observation)`` for those envs, in order: the control steps' rewards
+        summed as TorchRL's ``DMControlEnv`` sums them (float64), whether the time limit ended the
+        episode (the six tasks end no other way), and dm_control's observation of the last state (a dict
+        of ``[len(indices), ...]`` float64 arrays; ``None`` unless ``observe``).
+        """
+        indices = np.asarray(indices, dtype=np.int64)
+        n = len(indices)
+        counts = np.array([self.envs[i]._step_count for i in indices], dtype=np.float64)
+        limits = np.array([self.envs[i]._step_limit for i in indices], dtype=np.float64)
+        # control steps until the limit: dm_control ends the episode at the first step with count >= limit
+        steps = np.minimum(self.frame_skips[indices], np.maximum(1, np.ceil(limits - counts))).astype(np.int64)
+        truncated = counts + steps >= limits
+        parts = self._parts(n)
+        work = [(indices[part], actions[part], steps[part], part) for part in parts]
+        if self._pool is None or len(work) == 1:
+            for item in work:
+                self._run(*item)
+        else:
+            for future in [self._pool.submit(self._run, *item) for item in work]:
+                future.result()
+        for i, count, ended in zip(indices.tolist(), (counts + steps).tolist(), truncated.tolist()):
+            env = self.envs[i]
+            env._step_count = int(count) if math.isfinite(count) else count
+            env._reset_next_step = ended
+        recorded = {f: values[:, :n] for f, values in self.record.items()}
+        model = {f: values[indices] for f, values in self.model.items()}
+        with np.errstate(all="ignore"):  # rows past an env's last step hold older states, masked out below
+            rewards = self.arrays.reward(recorded, model, self.ids)
+        reward = 0
+        for j in range(self.frame_skip):  # DMControlEnv: reward = reward + step.reward, step by step
+            reward = np.where(j < steps, reward + rewards[j], reward)
+        observation = None
+        if observe:
+            last = {f: values[steps - 1, np.arange(n)] for f, values in recorded.items()}
+            observation = self.arrays.observation(last, model, self.ids)
+        return np.asarray(reward, np.float64), truncated, observation
+
+    def _parts(self, n: int) -> list[slice]:
+        parts = min(self.threads, n)
+        bounds = [round(k * n / parts) for k in range(parts + 1)]
+        return [slice(a, b) for a, b in zip(bounds, bounds[1:])]
+
+    def _run(self, indices: np.ndarray, actions: np.ndarray, steps: np.ndarray, part: slice) -> None:
+        """The control steps of envs ``indices`` (one thread), recorded in rows ``part`` of :attr:`record`."""
+        record = self._record
+        for row, i, action, k in zip(range(part.start, part.stop), indices.tolist(), actions, steps.tolist()):
+            model, data = self._models[i], self._datas[i]
+            sources, sub, rk4 = self._sources[i], self._sub_steps[i], self._rk4[i]
+            warnings = self._warnings[i]
+            before = warnings.copy()
+            np.copyto(data.ctrl, action)  # the task's before_step: physics.set_control(action)
+            for j in range(k):
+                if rk4:  # dm_control's Physics.step with legacy_step
+                    mujoco.mj_step(model, data, sub)
+                else:
+                    mujoco.mj_step2(model, data)
+                    if sub > 1:
+                        mujoco.mj_step(model, data, sub - 1)
+                mujoco.mj_step1(model, data)
+                for values, source in zip(record, sources):
+                    values[j, row] = source
+            if (warnings > before).any():
+                names = [name for name, new in zip(mujoco.mjtWarning.__members__, warnings > before) if new]
+                raise PhysicsError(f"Physics state is invalid. Warning(s) raised: {', '.join(names)}")
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()

@@ -6,7 +6,7 @@
 A set holds, per transition, in TorchRL's TED layout (root and ``"next"``): the action, the
 reward, ``terminated`` / ``truncated`` / ``done``, the task's state (``"state"``: the
 proprioceptive observation), the distractions' state (``"distractions"``: camera, colour,
-background), and the frames (uint8, each stored once; the masks too where the env renders them),
+background), and the frames (uint8, each stored once; with ``--backend warp --masks`` the masks too),
 memory-mapped, with a ``metadata.json`` of every setting that made it. docs/datasets.md has the
 layout, the commands and the sizes.
 
@@ -14,6 +14,8 @@ layout, the commands and the sizes.
 - :func:`load`: the set as a TorchRL ``TensorDictReplayBuffer`` sampling frame stacks that never
   cross an episode's boundary; :func:`load_vd4rl`: the same in the layout of TorchRL's
   ``VD4RLExperienceReplay``.
+- ``python -m dcs_torchrl.datasets export``: the set in V-D4RL's DreamerV2 (npz) and DrQ+BC (hdf5)
+  file layouts (:mod:`~dcs_torchrl.datasets.vd4rl`), or as a Minari dataset (:mod:`~dcs_torchrl.datasets.export`).
 - ``python -m dcs_torchrl.datasets bc``: the behaviour-cloning baseline (:mod:`~dcs_torchrl.datasets.bc`).
 """
 from dcs_torchrl.datasets.generation import generate

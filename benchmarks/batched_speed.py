@@ -138,7 +138,8 @@ def main():
 class PhysicsTimed:
     """N dm_control envs of one task stepped by one path; ``run(seconds)`` returns env-agent steps/s."""
 
-    def __init__(self, domain: str, task: str, n: int, threads: int | None):
+    def __init__(self, domain: str, task: str, n: int, threads: int | None | bool):
+        """``threads``: ``False`` for today's per-env path, else BatchPhysics's (``None``: chosen)."""
         from dm_control import suite
 
         self.envs = [suite.load(domain, task, task_kwargs={"random": i}) for i in range(n)]
@@ -149,11 +150,12 @@ class PhysicsTimed:
         self.low, self.high = spec.minimum, spec.maximum
         self.rng = np.random.default_rng(0)
         self.batch = None
-        if threads is not None:
+        if threads is not False:
             arrays = task_arrays(domain, task, self.envs[0].task)
             self.batch = BatchPhysics(self.envs, arrays, self.k, threads)
         self.all = np.arange(n)
-        self.run(0.0)
+        for _ in range(40):  # built, and the threads chosen
+            self.step()
 
     def step(self) -> None:
         actions = self.rng.uniform(self.low, self.high, (len(self.envs), len(self.low)))
@@ -185,22 +187,23 @@ def physics_only(args) -> None:
     print(f"{cpu_model()}; {cores} cores; {args.rounds} rounds of ~{args.seconds:g} s, interleaved; median "
           "env-agent steps/s (ratio to today's per-env path); no render, random actions")
     print("| task (action repeat) | N | dm_control step, env by env | BatchPhysics, 1 thread | "
-          f"BatchPhysics, {cores} threads |")
-    print("|---|--:|--:|--:|--:|")
+          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) |")
+    print("|---|--:|--:|--:|--:|--:|")
     for spec in args.tasks:
         domain, task = spec.split(":")
         if (domain, task) not in TASKS:
             raise SystemExit(f"{domain}:{task} is not over arrays; choose among {[':'.join(t) for t in TASKS]}")
         for n in sizes:
-            paths = {"today": PhysicsTimed(domain, task, n, None), "1": PhysicsTimed(domain, task, n, 1),
-                     "all": PhysicsTimed(domain, task, n, cores)}
+            paths = {"today": PhysicsTimed(domain, task, n, False), "1": PhysicsTimed(domain, task, n, 1),
+                     "all": PhysicsTimed(domain, task, n, cores), "chosen": PhysicsTimed(domain, task, n, None)}
             rates = {name: [] for name in paths}
             for _ in range(args.rounds):
                 for name, timed in paths.items():
                     rates[name].append(timed.run(args.seconds))
             base = statistics.median(rates["today"])
             cells = [f"{statistics.median(v):.0f} ({statistics.median(v) / base:.1f}x)" for v in rates.values()]
-            print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} |")
+            chosen = paths["chosen"].batch.threads
+            print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} ({chosen}) |")
 
 
 if __name__ == "__main__":

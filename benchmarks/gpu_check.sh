@@ -7,8 +7,9 @@
 #   bash benchmarks/gpu_check.sh learn    # docs/training.md's short run (16K frames) with device=cuda (~2 min)
 #   bash benchmarks/gpu_check.sh parallel # benchmarks/parallel_speed.py with 16 workers (#cores of such a box)
 #   bash benchmarks/gpu_check.sh concurrent # benchmarks/concurrent_runs.py: 1, 2, 4, 8 recipe runs at once on the GPU (~5 min)
-#   bash benchmarks/gpu_check.sh batched  # benchmarks/batched_speed.py --device cuda: the Warp backend, N up to 4096,
-#                                         # cartpole medium dynamic; then the Warp tests on the GPU (needs
+#   bash benchmarks/gpu_check.sh batched  # CUDA frames against CPU Warp frames; the batch's physics alone on every
+#                                         # core (--physics-only); batched_speed.py --device cuda: the Warp backend, N up
+#                                         # to 4096, cartpole medium dynamic, with the physics / scene / render shares (needs
 #                                         # mujoco-warp and warp-lang: warp-lang's wheel, ~150 MB, exceeds one
 #                                         # call's 64 MiB: carry it in parts (split -b 60M) over consecutive calls
 #                                         # and join them in a scratch folder there, then pip install --no-deps)
@@ -83,9 +84,13 @@ case $stage in
     ;;
   batched)
     step machine 60 bash -c "$MACHINE"
-    step batched_speed "$(left 420)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
-      --presets medium --sizes 16 64 256 1024 4096 --rounds 2 --seconds 3
-    step test_batched "$(left 120)" env DCS_WARP_DEVICE=cuda python3 -m pytest -q -rfE -p no:cacheprovider tests/test_batched.py
+    step cuda_frames "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider tests/test_batched.py -k cuda_frames
+    step physics_only "$(left 120)" python3 benchmarks/batched_speed.py --physics-only --sizes 256 --rounds 2 --seconds 2 \
+      --tasks cartpole:swingup cheetah:run walker:walk
+    step batched_speed "$(left 300)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
+      --presets medium --sizes 256 1024 --rounds 2 --seconds 3
+    step batched_4096 "$(left 400)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
+      --presets medium --sizes 4096 --rounds 1 --seconds 4
     ;;
   suite)
     step suite 560 env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -27,7 +28,10 @@ from dm_control.rl.control import PhysicsError
 
 from dcs_torchrl.task_arrays import Ids, TaskArrays
 
-__all__ = ["BatchPhysics", "physics_threads"]
+__all__ = ["BatchPhysics", "TRIALS", "physics_threads"]
+
+#: Steps each thread count is tried on when :class:`BatchPhysics` chooses its threads.
+TRIALS = 3
 
 
 def physics_threads() -> int:
@@ -44,7 +48,11 @@ class BatchPhysics:
         arrays (TaskArrays): the task over arrays (:func:`dcs_torchrl.task_arrays.task_arrays`).
         frame_skip (int or sequence of int): control steps per agent step (the action repeat), of all
             the envs or of each.
-        threads (int, optional): threads the physics run on (``None``: :func:`physics_threads`).
+        threads (int, optional): threads the physics run on. ``None``: chosen by measurement among 1, 2,
+            4, ... up to :func:`physics_threads` (each tried on :data:`TRIALS` steps in turn, then the
+            fastest per env kept): a task whose MuJoCo step is short gains nothing from threads that
+            take the GIL in turn between calls, one whose step is long gains from every core. The
+            states are the same for any number.
     """
 
     def __init__(self, dm_envs: Sequence, arrays: TaskArrays, frame_skip: int | Sequence[int],
@@ -54,10 +62,15 @@ class BatchPhysics:
         n = len(self.envs)
         self.frame_skips = np.broadcast_to(np.asarray(frame_skip, dtype=np.int64), (n,)).copy()
         self.frame_skip = int(self.frame_skips.max())
-        threads = physics_threads() if threads is None else threads
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
             raise ValueError(f"physics_threads must be a positive integer (or None), got {threads!r}.")
-        self.threads = min(threads, n)
+        most = min(physics_threads() if threads is None else threads, n)
+        #: the thread counts still to try (each TRIALS steps), then the one kept; its seconds per env-step
+        self._trials = [] if threads is not None else [t for t in (2 ** e for e in range(most.bit_length())) if t <= most]
+        if self._trials and self._trials[-1] != most:
+            self._trials.append(most)
+        self._timings: dict[int, list[float]] = {t: [] for t in self._trials}
+        self.threads = most if threads is not None else self._trials[0]
         first = self.envs[0].physics
         self.ids = Ids(first.model.ptr)
         self._sub_steps = [int(env._n_sub_steps) for env in self.envs]
@@ -73,7 +86,7 @@ class BatchPhysics:
         self.model = {f: np.zeros((n, *np.shape(getattr(first.model, f))), np.float64) for f in arrays.model_fields}
         for i in range(n):
             self.after_reset(i)
-        self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="dcs-physics") if self.threads > 1 else None
+        self._pool = ThreadPoolExecutor(most, thread_name_prefix="dcs-physics") if most > 1 else None
 
     def after_reset(self, i: int) -> None:
         """Env ``i`` was reset (its task drew a new episode): read the model fields its task may have set."""
@@ -103,12 +116,14 @@ class BatchPhysics:
         truncated = counts + steps >= limits
         parts = self._parts(n)
         work = [(indices[part], actions[part], steps[part], part) for part in parts]
-        if self._pool is None or len(work) == 1:
-            for item in work:
-                self._run(*item)
+        start = time.perf_counter()
+        if len(work) == 1:
+            self._run(*work[0])
         else:
             for future in [self._pool.submit(self._run, *item) for item in work]:
                 future.result()
+        if len(self._timings) > 1:
+            self._choose_threads((time.perf_counter() - start) / n)
         for i, count, ended in zip(indices.tolist(), (counts + steps).tolist(), truncated.tolist()):
             env = self.envs[i]
             env._step_count = int(count) if math.isfinite(count) else count
@@ -125,6 +140,17 @@ class BatchPhysics:
             last = {f: values[steps - 1, np.arange(n)] for f, values in recorded.items()}
             observation = self.arrays.observation(last, model, self.ids)
         return np.asarray(reward, np.float64), truncated, observation
+
+    def _choose_threads(self, seconds: float) -> None:
+        """Records a step's seconds per env under :attr:`threads`; moves to the next count to try, or,
+        once each has had :data:`TRIALS` steps, keeps the fastest (by median)."""
+        self._timings[self.threads].append(seconds)
+        untried = [t for t, times in self._timings.items() if len(times) < TRIALS]
+        if untried:
+            self.threads = untried[0]
+            return
+        self.threads = min(self._timings, key=lambda t: float(np.median(self._timings[t])))
+        self._timings = {self.threads: []}
 
     def _parts(self, n: int) -> list[slice]:
         parts = min(self.threads, n)

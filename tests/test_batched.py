@@ -291,6 +291,24 @@ def test_a_clean_frame_is_the_gl_frame_within_a_few_grey_levels():
     assert np.abs(warp.astype(int) - gl.astype(int)).mean() < 6
 
 
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (benchmarks/gpu_check.sh batched)")
+@pytest.mark.parametrize("benchmark", ["none", "medium"])
+def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(benchmark):
+    """The same seed rendered by Warp on CUDA and on the CPU, without and with videos, over a few steps."""
+    frames = []
+    for device in ("cpu", "cuda"):
+        env = make_env("cheetah", "run", benchmark=benchmark, dynamic=True, num_envs=4, backend="warp", device=device,
+                       height=48, width=48, seed=3)
+        td, run = env.reset(), []
+        for action in _actions(3, 4).expand(3, 4, 6):
+            td = env.step(td.set("action", action.to(device)))["next"]
+            run.append(td["pixels"].cpu().int())
+        env.close()
+        frames.append(torch.stack(run))
+    difference = (frames[0] - frames[1]).abs()
+    assert difference.max() <= 1 and difference.float().mean() < 0.05, (difference.max(), difference.float().mean())
+
+
 def _red_sky_envs(n: int, ground_alpha: float) -> list:
     red = np.zeros((4, 32, 32, 3), np.uint8)
     red[..., 0] = 255

@@ -33,6 +33,14 @@ def small_set(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="module")
+def agent():
+    """The shipped cartpole agent as a behaviour policy, loaded once (it holds no episode state)."""
+    from dcs_torchrl.datasets.policies import load_behaviour
+
+    return load_behaviour("sac_rad_cartpole_swingup")
+
+
 def _copy(small_set, tmp_path) -> Path:
     out = tmp_path / "copy"
     shutil.copytree(small_set, out)
@@ -227,15 +235,14 @@ def test_the_vd4rl_layout_matches_what_torchrl_vd4rl_experience_replay_gives(sma
     assert stacked["pixels"].shape == (8, 9, 32, 32) and stacked["pixels"].max() <= 1.0
 
 
-def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternate_and_noise_stays_in_bounds(tmp_path):
+def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternate_and_noise_stays_in_bounds(tmp_path,
+                                                                                                          agent):
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from dcs_torchrl.datasets.policies import load_behaviour
     from dcs_torchrl.evaluation import torch_threads
     from dcs_torchrl.pretrained import checkpoint_sha256
 
-    agent = load_behaviour("sac_rad_cartpole_swingup")
     out = tmp_path / "mixed"
     record = generate(out, domain="cartpole", task="swingup", episodes=2, max_steps=4, policies=[agent, "random"])
     theirs = record["policies"][0]
@@ -322,14 +329,11 @@ def test_vd4rl_image_size_resizes_without_torchvision_as_torchrls_resize_does(sm
         ResizePixels(0, in_keys=["pixels"])
 
 
-def test_an_agent_acts_on_its_own_84_pixel_frames_while_the_set_stores_what_a_64_pixel_env_shows(tmp_path):
+def test_an_agent_acts_on_its_own_84_pixel_frames_while_the_set_stores_what_a_64_pixel_env_shows(tmp_path, agent):
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from dcs_torchrl.datasets.policies import load_behaviour
     from dcs_torchrl.evaluation import torch_threads
-
-    agent = load_behaviour("sac_rad_cartpole_swingup")
     settings = dict(domain="cartpole", task="swingup", benchmark="medium", dynamic=True)
     out = tmp_path / "small64"
     record = generate(out, episodes=2, seed=3, max_steps=3, image_size=64, policies=[agent], **settings)
@@ -358,10 +362,8 @@ def test_an_agent_acts_on_its_own_84_pixel_frames_while_the_set_stores_what_a_64
             env.close()
 
 
-def test_resuming_a_mixed_policy_set_gives_each_episode_the_policy_of_its_number(tmp_path, monkeypatch):
-    from dcs_torchrl.datasets.policies import load_behaviour
-
-    policies = [load_behaviour("sac_rad_cartpole_swingup"), "random"]
+def test_resuming_a_mixed_policy_set_gives_each_episode_the_policy_of_its_number(tmp_path, monkeypatch, agent):
+    policies = [agent, "random"]
     settings = dict(domain="cartpole", task="swingup", episodes=3, max_steps=2, image_size=32, policies=policies)
     uncut = generate(tmp_path / "uncut", **settings)
     out = tmp_path / "cut"

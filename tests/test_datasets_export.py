@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from test_datasets import EPISODES, SET
+from test_datasets import EPISODES, SET, agent  # noqa: F401 (a fixture)
 
 from dcs_torchrl.datasets import generate, load_data, load_vd4rl
 from dcs_torchrl.datasets.__main__ import main
@@ -180,11 +180,11 @@ def test_a_bad_minari_id_is_refused_before_anything_is_written(small_set, tmp_pa
         main(["export", str(small_set), "--dataset-id", "dcs/cartpole-test-v0", "--root", str(root)])
 
 
-def test_a_64_pixel_set_of_a_shipped_agent_exports_to_both_layouts_at_64_pixels(tmp_path):
+def test_a_64_pixel_set_of_a_shipped_agent_exports_to_both_layouts_at_64_pixels(tmp_path, agent):
     pytest.importorskip("h5py")
     out = tmp_path / "agent64"
     generate(out, domain="cartpole", task="swingup", episodes=2, max_steps=2, image_size=64,
-             policies=["sac_rad_cartpole_swingup"])
+             policies=[agent])
     main(["export", str(out), "--format", "vd4rl-npz", "--out", str(tmp_path / "npz")])
     main(["export", str(out), "--format", "vd4rl-hdf5", "--out", str(tmp_path / "hdf5")])
     dreamer, drqbc = dreamer_episodes(tmp_path / "npz"), drqbc_episodes(tmp_path / "hdf5")

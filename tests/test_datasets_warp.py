@@ -2,7 +2,7 @@
 where the renderer does not enter, masks from the same render, resume and refusal as on GL."""
 import pytest
 import torch
-from test_datasets import EPISODES, SET, killed_at
+from test_datasets import SET, agent, killed_at  # noqa: F401 (agent: a fixture)
 
 import dcs_torchrl as dcs
 from dcs_torchrl.datasets import generate, load_data
@@ -83,12 +83,11 @@ def test_a_killed_warp_run_resumes_with_any_num_envs_to_the_uncut_set(sets, tmp_
         generate(out, episodes=WARP_EPISODES + 1, seed=0, backend="warp", **SET)
 
 
-def test_what_one_warp_batch_cannot_render_is_refused_with_the_fix(tmp_path):
+def test_what_one_warp_batch_cannot_render_is_refused_with_the_fix(tmp_path, agent):
     with pytest.raises(ValueError, match="--backend warp renders one image size, and the agents act on 84-pixel "
                                          "frames: ask --image-size 84, or use --backend gl"):
         generate(tmp_path / "a", domain="cartpole", task="swingup", episodes=1, image_size=64, backend="warp",
-                 policies=["sac_rad_cartpole_swingup"])
+                 policies=[agent])
     with pytest.raises(ValueError, match="--reference-blend .* use --backend gl"):
         generate(tmp_path / "b", episodes=1, backend="warp", reference_blend=True, **SET)
     assert not any(tmp_path.iterdir())
-    assert EPISODES < WARP_EPISODES

@@ -68,8 +68,10 @@ def _agent_pixels(behaviours: Sequence[BehaviourPolicy]) -> dict | None:
     if len(agents) > 1:
         raise ValueError(f"the --policy agents act on different pixels ((image size, render profile): {sorted(agents)}): "
                          "mix agents of one pixel setting in a set.")
-    return {"image_size": agents.pop()[0], "render_profile": next(iter(
-        b.pixels["render_profile"] for b in behaviours if b.agent is not None))} if agents else None
+    if not agents:
+        return None
+    size, profile = agents.pop()
+    return {"image_size": size, "render_profile": profile}
 
 
 @dataclass(frozen=True)

@@ -84,9 +84,9 @@ case $stage in
     ;;
   batched)
     step machine 60 bash -c "$MACHINE"
-    step cuda_frames "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider tests/test_batched.py -k cuda_frames
-    step physics_only "$(left 120)" python3 benchmarks/batched_speed.py --physics-only --sizes 256 --rounds 2 --seconds 2 \
-      --tasks cartpole:swingup cheetah:run walker:walk
+    step cuda_frames "$(left 220)" python3 -m pytest -q -rfE -p no:cacheprovider tests/test_batched.py -k cuda_frames
+    step physics_only "$(left 150)" python3 benchmarks/batched_speed.py --physics-only --sizes 256 --rounds 1 --seconds 2 \
+      --tasks cartpole:swingup walker:walk
     step batched_speed "$(left 300)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
       --presets medium --sizes 256 1024 --rounds 2 --seconds 3
     step batched_4096 "$(left 400)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \

@@ -129,6 +129,8 @@ class _World:
         self.distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
         self.exposed = [t for t in self.distractions if t.expose]
         self.background = next((t for t in self.distractions if isinstance(t, BackgroundDistraction)), None)
+        if self.background is not None:  # the batch's renderer takes each sky from upload_textures alone
+            self.background.writes_model = False
         self.physics = locate(self.distractions[0], strict=True).physics if self.distractions else self.dm.physics
 
     def step(self, action: np.ndarray):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import os
 import textwrap
@@ -75,8 +76,11 @@ class EnvOptions:
     device: torch.device | str | None = _option(
         None, 'TorchRL device of the env; with ``backend="warp"`` also where Warp renders (``"cpu"``, the '
               'default, or ``"cuda"``).', scene=False)
-    num_envs: int | None = _option(None, 'with ``backend="warp"``, the number of envs of the batch (default 1); '
-                                         "the env's batch size is then ``[num_envs]``.", scene=False)
+    num_envs: int | None = _option(None, "``N`` envs in one env of batch size ``[N]`` (pixels ``[N, H, W, 3]``), env "
+                                         "``i`` seeded as TorchRL seeds its batched envs' workers: "
+                                         '``backend="gl"``, one process each (:class:`dcs_torchrl.ParallelSuiteEnv`); '
+                                         '``backend="warp"``, all in this process, rendered in one batch (required '
+                                         "there). ``None``: one env, batch size ``[]`` (GL).", scene=False)
     backend: str = _option(
         "gl", '``"gl"`` (default): one env, rendered by MuJoCo\'s OpenGL renderer, the reference the paper\'s '
               'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process, each with its own '
@@ -212,17 +216,19 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
     o = EnvOptions(**options)
     _check_options(o)
     s = resolve_settings(domain, task, **{k: v for k, v in options.items() if k in SCENE_OPTIONS})
-    if o.backend == "gl":
-        if o.num_envs is not None:
-            raise ValueError(
-                "num_envs is for backend='warp' (N envs in this process, rendered in one batch): pass "
-                "backend='warp', or run GL envs in processes with "
-                "dcs_torchrl.ParallelSuiteEnv(n, functools.partial(dcs_torchrl.make_env, domain, task, ...)).")
-        if o.masks:
-            raise ValueError("masks=True needs backend='warp' (its render gives the segmentation at no second "
-                             "render); the GL backend has no masks.")
+    if o.backend == "gl" and o.masks:
+        raise ValueError("masks=True needs backend='warp' (its render gives the segmentation at no second "
+                         "render); the GL backend has no masks.")
+    if o.backend == "warp" and o.num_envs is None:
+        raise ValueError("backend='warp' renders a batch: pass num_envs=N (an env of batch size [N]; N=1 for one "
+                         "env), or backend='gl' (the default) for one unbatched env.")
     if o.backend == "warp":
-        env = _warp_env([(s, 1 if o.num_envs is None else o.num_envs)], o)
+        env = _warp_env([(s, o.num_envs)], o)
+    elif o.num_envs is not None:  # N GL envs, one process each: env i is make_env(...) seeded by the chain
+        from dcs_torchrl.parallel import ParallelSuiteEnv
+
+        one = {k: v for k, v in options.items() if k not in ("num_envs", "seed", "device")}
+        env = ParallelSuiteEnv(o.num_envs, functools.partial(make_env, domain, task, **one), device=o.device)
     else:
         render = RenderPixels(o.height, o.width, s.camera_id, profile=o.render_profile)
         env = _distracted_env(s, bool(o.expose_distractions), o.device, render, o.pixels_only)

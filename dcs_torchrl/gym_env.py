@@ -286,8 +286,10 @@ class DistractingControlEnv(gymnasium.Env):
 
 class DistractingControlVectorEnv(gymnasium.vector.VectorEnv):
     """``num_envs`` Distracting Control Suite envs as one Gymnasium vector env, over
-    ``make_env(..., num_envs=num_envs, backend="warp")``: their physics stepped in this process, their
-    frames rendered in one MuJoCo Warp batch (``pip install "dcs-torchrl[warp]"``; docs/batched.md).
+    ``make_env(..., num_envs=num_envs, backend=backend)``: by default ``backend="warp"``, their physics
+    stepped in this process, their frames rendered in one MuJoCo Warp batch (``pip install
+    "dcs-torchrl[warp]"``; docs/batched.md); ``backend="gl"``, one process each
+    (:class:`~dcs_torchrl.ParallelSuiteEnv`), the same episodes.
 
     ``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` builds it for any
     registered id (keywords as for ``gymnasium.make``). Sub-env ``i`` is env ``i`` of the batched env:
@@ -319,14 +321,9 @@ class DistractingControlVectorEnv(gymnasium.vector.VectorEnv):
 
     def __init__(self, domain: str, task: str, num_envs: int = 1, *, obs_type: str = "pixels",
                  dict_layout: str = "nested", registered_id: str | None = None, **settings):
-        if settings.get("backend", "warp") != "warp":
-            raise ValueError(
-                f"DistractingControlVectorEnv batches its envs through backend='warp', not {settings['backend']!r}: for "
-                "GL envs use gymnasium.make_vec(id, num_envs, vectorization_mode='async') (one process each)."
-            )
         if settings.pop("render_mode", None) is not None:
             raise ValueError("DistractingControlVectorEnv has no render mode: the frames are its observations.")
-        settings["backend"] = "warp"
+        settings.setdefault("backend", "warp")
         seed = _checked_settings(domain, task, obs_type, dict_layout, registered_id, settings)
         self.torchrl_env = make_env(domain, task, seed=seed, pixels_only=obs_type == "pixels", num_envs=num_envs,
                                     **settings)

@@ -151,10 +151,14 @@ def test_a_task_not_over_arrays_keeps_dm_controls_step_and_its_episodes():
 
 
 def test_the_batch_equals_parallel_suite_env_seeded_alike():
+    """make_env(num_envs=N): both backends, the same tensordict shapes, the same episodes (GL: N processes)."""
     n, steps = 2, EPISODE + 2
     actions = _actions(steps, n)
     runs = []
-    for env in (_warp(n), dcs.ParallelSuiteEnv(n, _gl())):
+    gl = make_env("cartpole", "swingup", num_envs=n, **SETTINGS)
+    assert isinstance(gl, dcs.ParallelSuiteEnv) and gl.batch_size == (n,)
+    for env in (_warp(n), gl):
+        assert env.observation_spec["pixels"].shape == (n, 32, 32, 3)
         env.set_seed(3)
         td, run = env.reset(), []
         for action in actions:
@@ -196,6 +200,18 @@ def test_only_the_first_model_holds_the_full_sky_unless_videos_are_blended_onto_
     assert b'width="800"' in common.ASSETS["./common/skybox.xml"]  # the suite's asset as it was
     env = _warp(2, background_blend=0.5)
     assert len(set(sky_bytes(env))) == 1
+    env.close()
+
+
+def test_the_batch_writes_no_video_frame_into_a_model_it_does_not_render_from():
+    env = _warp(2)
+    skies = [w.physics.model.tex_data.copy() for w in env._worlds]
+    env.set_seed(0)
+    td = env.reset()
+    for action in _actions(3, 2):
+        td = env.step(td.set("action", action))["next"]
+    assert all(np.array_equal(w.physics.model.tex_data, sky) for w, sky in zip(env._worlds, skies))
+    assert len(td["pixels"].unique()) > 10  # the frames show the videos all the same
     env.close()
 
 
@@ -292,12 +308,12 @@ def test_a_clean_frame_is_the_gl_frame_within_a_few_grey_levels():
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (benchmarks/gpu_check.sh batched)")
-@pytest.mark.parametrize("benchmark", ["none", "medium"])
-def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(benchmark):
+@pytest.mark.parametrize("preset", ["none", "medium"])  # not "benchmark": pytest-benchmark's fixture
+def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(preset):
     """The same seed rendered by Warp on CUDA and on the CPU, without and with videos, over a few steps."""
     frames = []
     for device in ("cpu", "cuda"):
-        env = make_env("cheetah", "run", benchmark=benchmark, dynamic=True, num_envs=4, backend="warp", device=device,
+        env = make_env("cheetah", "run", benchmark=preset, dynamic=True, num_envs=4, backend="warp", device=device,
                        height=48, width=48, seed=3)
         td, run = env.reset(), []
         for action in _actions(3, 4).expand(3, 4, 6):
@@ -404,8 +420,8 @@ def test_render_chunks_give_the_same_pixels():
 
 
 def test_bad_settings_are_refused_with_the_fix():
-    with pytest.raises(ValueError, match="backend='warp'"):
-        make_env("cartpole", "swingup", num_envs=2)
+    with pytest.raises(ValueError, match="pass num_envs=N"):
+        make_env("cartpole", "swingup", backend="warp")
     with pytest.raises(ValueError, match="masks=True needs backend='warp'"):
         make_env("cartpole", "swingup", masks=True)
     with pytest.raises(ValueError, match="unknown backend"):
@@ -413,7 +429,7 @@ def test_bad_settings_are_refused_with_the_fix():
     with pytest.raises(ValueError, match="num_envs must be a positive integer"):
         make_env("cartpole", "swingup", backend="warp", num_envs=0)
     with pytest.raises(ValueError, match="camera_id=-1"):
-        make_env("cartpole", "swingup", backend="warp", camera_id=-1)
+        make_env("cartpole", "swingup", backend="warp", num_envs=1, camera_id=-1)
     with pytest.raises(ValueError, match="render_chunks"):
         _chunks(4, 0)
     env = _warp(1)
@@ -535,6 +551,20 @@ def test_the_gymnasium_vector_env_steps_the_batch_and_autoresets_at_the_next_ste
         envs.step(actions[0].numpy())
     with pytest.raises(ValueError, match="vectorization_mode='vector_entry_point'"):
         gymnasium.make("dcs/cartpole-swingup-none-v0", backend="warp", num_envs=2)
+    # backend="gl": make_env's N GL envs in processes under the same vector env, the same episodes
+    envs = gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=n, backend="gl",
+                              vectorization_mode="vector_entry_point", **{**options, "device": None})
+    warp = gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=n,
+                              vectorization_mode="vector_entry_point", **options)
+    for vector in (envs, warp):
+        vector.reset(seed=3)
+    for t in range(EPISODE + 1):
+        gl_step, warp_step = envs.step(actions[t].numpy()), warp.step(actions[t].numpy())
+        assert gl_step[0].shape == warp_step[0].shape == (n, 32, 32, 3)
+        for a, b in zip(gl_step[1:4], warp_step[1:4]):
+            assert np.array_equal(a, b), t
+    envs.close()
+    warp.close()
 
 
 def _run(env, seed: int, actions: torch.Tensor) -> list:

@@ -135,6 +135,10 @@ class BackgroundDistraction(DistractionTransform):
         self._video, self._frame, self._direction = -1, -1, 1
         self._pending: list[np.ndarray] | None = None
         self._dirty = False
+        #: whether each new sky is also written into the model's texture (``tex_data``), where MuJoCo's GL
+        #: context reads it; the batched Warp env, whose renderer takes the sky from
+        #: :meth:`upload_textures` alone, sets it False
+        self.writes_model = True
         super().__init__(seed=seed, expose=expose)
 
     def reseed(self, seed: int | None) -> None:
@@ -204,11 +208,12 @@ class BackgroundDistraction(DistractionTransform):
             faces = self._shown = [(dimmed + video).astype(np.uint8) for dimmed in self._dimmed]
         else:
             faces = [cv2.addWeighted(frame, self.blend, face, 1.0 - self.blend, 0.0) for face in self._sky_faces]
-        model.tex_width[sky] = s
-        model.tex_height[sky] = s * len(faces)
-        adr = int(model.tex_adr[sky])
-        for i, face in enumerate(faces):
-            model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
+        if self.writes_model:
+            model.tex_width[sky] = s
+            model.tex_height[sky] = s * len(faces)
+            adr = int(model.tex_adr[sky])
+            for i, face in enumerate(faces):
+                model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
         self._pending = faces
         self._dirty = False
 

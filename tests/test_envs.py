@@ -122,7 +122,8 @@ def test_benchmark_none_is_plain_dm_control():
 
 
 def test_parallel_env_workers_get_their_own_streams():
-    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="medium", dynamic=True, expose_distractions=True)
+    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="medium", dynamic=True, expose_distractions=True,
+                                height=32, width=32)
     env = ParallelEnv(2, factory, mp_start_method="spawn")
     env.set_seed(0)
     check_env_specs(env)
@@ -133,13 +134,13 @@ def test_parallel_env_workers_get_their_own_streams():
 
 
 def test_serial_env_and_collectors():
-    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="easy", dynamic=True)
+    factory = functools.partial(make_env, "cartpole", "swingup", benchmark="easy", dynamic=True, height=32, width=32)
     serial = SerialEnv(2, factory)
     serial.set_seed(0)
     check_env_specs(serial)
     collector = Collector(serial, None, frames_per_batch=8, total_frames=16)
     batches = [batch for batch in collector]
-    assert len(batches) == 2 and batches[0]["next", "pixels"].shape[-3:] == (84, 84, 3)
+    assert len(batches) == 2 and batches[0]["next", "pixels"].shape[-3:] == (32, 32, 3)
     collector.shutdown()
     multi = MultiSyncCollector([factory, factory], None, frames_per_batch=8, total_frames=16)
     multi.set_seed(0)

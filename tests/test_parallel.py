@@ -20,6 +20,12 @@ SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, 
 FACTORY = functools.partial(make_env, "cartpole", "swingup", **SETTINGS)
 
 
+# Both layouts of the envs for the tests of partial resets, partial steps and specs: with first_here both a
+# worker's env and this process's are reset or skipped alone; every env in workers under -m slow (the layout
+# itself: test_each_worker_runs_the_episodes_of_one_env_with_its_seed).
+WORKER_LAYOUTS = [pytest.param(False, marks=pytest.mark.slow), True]
+
+
 def _seeds(seed: int, n: int) -> list[int]:
     """Each worker's seed under TorchRL's chain: the next is what the previous one's set_seed returns."""
     seeds = [seed]
@@ -67,7 +73,7 @@ def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin
     assert not torch.equal(batched[0]["pixels"][0], batched[0]["pixels"][1])  # workers differ
 
 
-@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+@pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
 def test_specs_partial_reset_and_a_collector(first_here):
     env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
     check_env_specs(env, seed=0)
@@ -105,7 +111,7 @@ def _alone(seed: int, actions: torch.Tensor, reset_after: int | None = None) -> 
     return out
 
 
-@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+@pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
 def test_an_env_not_reset_continues_its_episode(first_here):
     """A partial reset restarts the marked env only: the other's next steps are those of one env
     stepped without a reset (TorchRL's reset keeps the old entries of the envs not reset, so the
@@ -130,7 +136,7 @@ def test_an_env_not_reset_continues_its_episode(first_here):
     env.close()
 
 
-@pytest.mark.parametrize("first_here", [False, True], ids=["all-in-workers", "first-here"])
+@pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
 def test_an_env_not_stepped_waits_and_then_continues(first_here):
     """``"_step"`` (written by ``rollout(break_when_all_done=True)``) steps the marked envs only: the
     other keeps its frame and done flags, with reward 0, and later continues from where it was."""

@@ -44,9 +44,11 @@ def test_shipped_agent_is_small_and_networks_only(name):
 
 # Clean episodes each agent is judged on: three for the all-or-nothing tasks, one for the others.
 EPISODES = {"sac_rad_ball_in_cup_catch": 3, "sac_rad_reacher_easy": 3}
+# Judged in the default run (CI): a fixed camera and a tracking one, over a floor; every agent under -m slow.
+JUDGED_BY_DEFAULT = ("sac_rad_cartpole_swingup", "sac_rad_cheetah_run")
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", [n if n in JUDGED_BY_DEFAULT else pytest.param(n, marks=pytest.mark.slow) for n in SHIPPED])
 def test_shipped_agent_far_above_a_random_policy(name):
     """Its first clean episodes (of its final evaluation's seeds): above 4x a random policy.
 
@@ -148,10 +150,10 @@ def test_evaluate_recipe_on_the_shipped_agent(tmp_path):
     out = tmp_path / "eval"
     done = subprocess.run(
         [sys.executable, str(ROOT / "recipes/evaluate/evaluate.py"), f"train_dir={AGENT}", "eval_env.camera_scale=0.3",
-         "eval.episodes=2", f"hydra.run.dir={out}"], capture_output=True, text=True, timeout=600)
+         "eval.episodes=1", f"hydra.run.dir={out}"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     results = json.loads((out / "results.json").read_text())
-    assert results["eval"]["episodes"] == 2 and results["eval_env"]["camera_scale"] == 0.3
+    assert results["eval"]["episodes"] == 1 and results["eval_env"]["camera_scale"] == 0.3
     assert results["method"] == "SAC+RAD"
 
 

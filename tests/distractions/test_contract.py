@@ -25,6 +25,14 @@ def build(name, seed=None, expose=True, frame_skip=2):
     )
 
 
+def build_all(seed=None):
+    """A cartpole env with every distraction, each exposed, then RenderPixels (picklable for workers)."""
+    return TransformedEnv(
+        DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=2),
+        Compose(*(DISTRACTIONS[name](seed=seed, expose=True) for name in sorted(DISTRACTIONS)), RenderPixels(32, 32)),
+    )
+
+
 def rollout(env, steps):
     """A rollout with seeded random actions (TorchRL draws them from torch's global generator)."""
     torch.manual_seed(0)
@@ -41,15 +49,27 @@ def test_specs_single(name):
     check_env_specs(build(name, seed=0, expose=False))
 
 
-def test_specs_serial_and_parallel(name):
-    for batched in (SerialEnv, functools.partial(ParallelEnv, mp_start_method="spawn"), ParallelSuiteEnv):
-        env = batched(2, functools.partial(build, name))
-        env.set_seed(0)
-        check_env_specs(env)
-        td = env.rollout(4)
+def test_specs_serial(name):
+    env = SerialEnv(2, functools.partial(build, name))
+    env.set_seed(0)
+    check_env_specs(env)
+    state = env.rollout(4)["next", "distractions", name]
+    assert not torch.equal(state[0], state[1]), "sub-envs must not share a random stream"
+    env.close()
+
+
+@pytest.mark.parametrize("batched", [functools.partial(ParallelEnv, mp_start_method="spawn"), ParallelSuiteEnv],
+                         ids=["ParallelEnv", "ParallelSuiteEnv"])
+def test_specs_parallel(batched):
+    """Every distraction in one env (one spawn of workers for the three): specs, and a stream per worker."""
+    env = batched(2, build_all)
+    env.set_seed(0)
+    check_env_specs(env)
+    td = env.rollout(4)
+    for name in DISTRACTIONS:
         state = td["next", "distractions", name]
-        assert not torch.equal(state[0], state[1]), "workers must not share a random stream"
-        env.close()
+        assert not torch.equal(state[0], state[1]), f"workers must not share the {name} distraction's random stream"
+    env.close()
 
 
 def test_exposed_state_is_declared(name):

@@ -27,7 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 RUN = [sys.executable, str(REPO / "recipes" / "experiments" / "run.py"), "-m"]
 SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.eval_processes=2",
           "experiment.train.0.evaluate=[{axis:camera,values:[0.0,1.0]}]", "budget.recipe.total_frames=200",
-          "budget.recipe.eval.episodes=1"]
+          "budget.recipe.eval.episodes=1", "budget.recipe.pixels.image_size=32"]
 CARTPOLE = "SAC+RAD/cartpole-swingup/none/seed_0"
 BALL = "SAC+RAD/ball_in_cup-catch/none/seed_0"
 

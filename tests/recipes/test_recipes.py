@@ -20,7 +20,7 @@ from dcs_torchrl.training.checkpoint import list_checkpoints
 ROOT = Path(__file__).resolve().parents[2]
 TINY = [
     "total_frames=480", "collector.seed_steps=20", "algo.batch_size=16", "network.hidden_dim=32",
-    "replay_buffer.size=1000", "pixels.image_size=48", "pixels.render_profile=fast", "eval.episodes=2",
+    "replay_buffer.size=1000", "pixels.image_size=32", "pixels.render_profile=fast", "eval.episodes=2",
     "eval.periodic_episodes=1", "eval.interval=240", "checkpoint.interval=160", "logger.interval=80", "progress=false",
 ]
 

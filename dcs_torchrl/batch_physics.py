@@ -31,7 +31,7 @@ from dcs_torchrl.task_arrays import Ids, TaskArrays
 __all__ = ["BatchPhysics", "TRIALS", "physics_threads"]
 
 #: Steps each thread count is tried on when :class:`BatchPhysics` chooses its threads.
-TRIALS = 3
+TRIALS = 5
 
 
 def physics_threads() -> int:
@@ -49,8 +49,8 @@ class BatchPhysics:
         frame_skip (int or sequence of int): control steps per agent step (the action repeat), of all
             the envs or of each.
         threads (int, optional): threads the physics run on. ``None``: chosen by measurement among 1, 2,
-            4, ... up to :func:`physics_threads` (each tried on :data:`TRIALS` steps in turn, then the
-            fastest per env kept): a task whose MuJoCo step is short gains nothing from threads that
+            4, ... up to :func:`physics_threads` (each tried on :data:`TRIALS` steps, the counts in
+            turn, then the fastest per env by median kept): a task whose MuJoCo step is short gains nothing from threads that
             take the GIL in turn between calls, one whose step is long gains from every core. The
             states are the same for any number.
     """
@@ -70,7 +70,8 @@ class BatchPhysics:
         if self._trials and self._trials[-1] != most:
             self._trials.append(most)
         self._timings: dict[int, list[float]] = {t: [] for t in self._trials}
-        self.threads = most if threads is not None else self._trials[0]
+        self._schedule = self._trials * TRIALS  # the counts in turn, round after round: noise hits each alike
+        self.threads = most if threads is not None else self._schedule[0]
         first = self.envs[0].physics
         self.ids = Ids(first.model.ptr)
         self._sub_steps = [int(env._n_sub_steps) for env in self.envs]
@@ -142,12 +143,12 @@ class BatchPhysics:
         return np.asarray(reward, np.float64), truncated, observation
 
     def _choose_threads(self, seconds: float) -> None:
-        """Records a step's seconds per env under :attr:`threads`; moves to the next count to try, or,
-        once each has had :data:`TRIALS` steps, keeps the fastest (by median)."""
+        """Records a step's seconds per env under :attr:`threads`; moves to the next count of the
+        schedule, or, once each has had :data:`TRIALS` steps, keeps the fastest (by median)."""
         self._timings[self.threads].append(seconds)
-        untried = [t for t, times in self._timings.items() if len(times) < TRIALS]
-        if untried:
-            self.threads = untried[0]
+        self._schedule = self._schedule[1:]
+        if self._schedule:
+            self.threads = self._schedule[0]
             return
         self.threads = min(self._timings, key=lambda t: float(np.median(self._timings[t])))
         self._timings = {self.threads: []}

@@ -20,6 +20,7 @@ the envs they name only; the others continue their episodes.
 """
 from __future__ import annotations
 
+import functools
 import re
 import time
 from collections.abc import Iterator, Sequence
@@ -34,17 +35,19 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
+from dcs_torchrl._batching import chain_seeds, marked
 from dcs_torchrl._scene import locate
 from dcs_torchrl.batch_physics import BatchPhysics
 from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
+from dcs_torchrl.render import check_profile
 from dcs_torchrl.task_arrays import task_arrays
 from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, skybox_faces
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
 
-#: The Warp backend's render settings by ``render_profile``: ``"default"`` draws shadows as GL's
-#: default profile does; ``"fast"`` none.
+#: The Warp backend's render settings by ``render_profile`` (the names of GL's
+#: :data:`dcs_torchrl.render.PROFILES`): ``"default"`` draws shadows as GL's default profile does; ``"fast"`` none.
 WARP_PROFILES = {"default": {"shadows": True}, "fast": {"shadows": False}}
 
 
@@ -184,9 +187,7 @@ class BatchedSuiteEnv(EnvBase):
                  device="cpu", pixels_only: bool = True, masks: bool = False, render_profile: str = "default",
                  render_chunks: int | None = None, groups: Sequence[int] | None = None,
                  physics_threads: int | None = None):
-        if render_profile not in WARP_PROFILES:
-            raise ValueError(f"unknown render_profile {render_profile!r} for backend='warp'; choose one of "
-                             f"{sorted(WARP_PROFILES)}.")
+        check_profile(render_profile)
         envs = list(envs)
         if not envs:
             raise ValueError("BatchedSuiteEnv needs at least one env (num_envs >= 1).")
@@ -374,8 +375,7 @@ class BatchedSuiteEnv(EnvBase):
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         self._check_open()
         actions = tensordict.get(self.action_key).detach().cpu().numpy()
-        partial = tensordict.get("_step", None)
-        indices = range(self.num_envs) if partial is None else partial.reshape(self.num_envs).nonzero().flatten().tolist()
+        indices = marked(tensordict, "_step", self.num_envs)
         self._reward[:] = 0.0
 
         def step(worlds: list[int]) -> None:
@@ -406,9 +406,7 @@ class BatchedSuiteEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         self._check_open()
-        indices = range(self.num_envs)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            indices = tensordict.get("_reset").reshape(self.num_envs, -1).any(-1).nonzero().flatten().tolist()
+        indices = marked(tensordict, "_reset", self.num_envs)
 
         def reset(worlds: list[int]) -> None:
             for i in worlds:
@@ -428,11 +426,10 @@ class BatchedSuiteEnv(EnvBase):
         """Seeds env 0 with ``seed`` and each next env with what the previous one's ``set_seed``
         returns (TorchRL's batched envs); with ``groups``, each group so from ``seed``. Returns the
         last env's return."""
-        worlds = iter(self._worlds)
+        worlds, chained = iter(self._worlds), seed
         for size in self._groups:
-            chained = seed
-            for _ in range(size):
-                chained = next(worlds).env.set_seed(chained, static_seed=static_seed)
+            chained = chain_seeds([functools.partial(next(worlds).env.set_seed, static_seed=static_seed)
+                                   for _ in range(size)], seed)
         return chained
 
     def _set_seed(self, seed: int | None) -> None:  # set_seed is overridden: never called

@@ -16,7 +16,7 @@ from torchrl.envs import Compose, DMControlEnv, EnvBase, ExcludeTransform, Trans
 from dcs_torchrl import presets
 from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
 from dcs_torchrl.distractions.background import as_video_source
-from dcs_torchrl.render import PROFILES, RenderPixels
+from dcs_torchrl.render import RenderPixels, check_profile
 
 
 def _option(default, meaning: str, *, scene: bool = True):
@@ -281,8 +281,7 @@ def make_grouped_env(domain: str, task: str, groups: Sequence[tuple[Mapping, int
 
 
 def _check_options(o: EnvOptions) -> None:
-    if o.render_profile not in PROFILES:
-        raise ValueError(f"unknown render_profile {o.render_profile!r}; choose one of {sorted(PROFILES)}.")
+    check_profile(o.render_profile)
     if o.seed is not None and (isinstance(o.seed, bool) or not isinstance(o.seed, int) or not 0 <= o.seed < 2**32):
         raise ValueError(f"seed must be a non-negative integer below 2**32 (or None), got {o.seed!r}.")
     if o.backend not in BACKENDS:
@@ -293,13 +292,10 @@ def _check_options(o: EnvOptions) -> None:
 
 def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
     """The :class:`~dcs_torchrl.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
-    from dcs_torchrl.batched import WARP_PROFILES, BatchedSuiteEnv, compact_skies
+    from dcs_torchrl.batched import BatchedSuiteEnv, compact_skies
     from dcs_torchrl.warp_render import import_warp
 
     import_warp()  # the extra's error first
-    if o.render_profile not in WARP_PROFILES:
-        raise ValueError(f"unknown render_profile {o.render_profile!r} for backend='warp'; choose one of "
-                         f"{sorted(WARP_PROFILES)}.")
     expose = bool(o.expose_distractions)
     first = groups[0][0]
     worlds = [_distracted_env(first, expose)]  # the batch renders from its model

@@ -36,6 +36,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
+from dcs_torchrl._batching import chain_seeds, marked
 from dcs_torchrl._threads import torch_threads
 from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
@@ -194,7 +195,7 @@ class ParallelSuiteEnv(EnvBase):
         for the envs still running); an env not stepped keeps its last observation and done flags,
         with reward 0, as the batched env's."""
         self._buffers["action"].update_(tensordict.select(*self.action_keys))
-        workers = _marked(tensordict, "_step", self.num_workers)
+        workers = marked(tensordict, "_step", self.num_workers)
         self._command(_STEP, workers)
         out = _copy(self._buffers["next"])
         if len(workers) < self.num_workers:
@@ -207,7 +208,7 @@ class ParallelSuiteEnv(EnvBase):
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         if kwargs:
             raise TypeError(f"ParallelSuiteEnv.reset takes no keyword arguments, got {sorted(kwargs)}.")
-        workers = _marked(tensordict, "_reset", self.num_workers)
+        workers = marked(tensordict, "_reset", self.num_workers)
         self._command(_RESET, workers)
         out = _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
         return out.to(self.device)  # no copy on the buffers' device
@@ -215,14 +216,16 @@ class ParallelSuiteEnv(EnvBase):
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seeds worker 0 with ``seed`` and each next worker with what the previous one's
         ``set_seed`` returns (TorchRL's batched envs); returns the last worker's return."""
-        for index, pipe in enumerate(self._pipes):
-            if pipe is None:
-                seed = self._here.env.set_seed(seed, static_seed=static_seed)
-                continue
-            pipe.send_bytes(_SEED)
-            pipe.send((seed, static_seed))
-            seed = self._receive(index)
-        return seed
+        def worker(index: int, pipe):
+            def set_seed(seed):
+                if pipe is None:
+                    return self._here.env.set_seed(seed, static_seed=static_seed)
+                pipe.send_bytes(_SEED)
+                pipe.send((seed, static_seed))
+                return self._receive(index)
+            return set_seed
+
+        return chain_seeds([worker(index, pipe) for index, pipe in enumerate(self._pipes)], seed)
 
     def _set_seed(self, seed: int | None) -> None:  # set_seed is overridden: never called
         raise NotImplementedError
@@ -319,14 +322,6 @@ class ParallelSuiteEnv(EnvBase):
                     "look for its error above; an env that cannot be built in a spawned process "
                     f"(a lambda, a local function) fails this way{device}."
                 )
-
-
-def _marked(tensordict: TensorDictBase | None, key: str, n: int) -> list[int]:
-    """The envs a ``"_reset"`` / ``"_step"`` mask of ``tensordict`` marks; every env without one."""
-    mask = None if tensordict is None else tensordict.get(key, None)
-    if mask is None:
-        return list(range(n))
-    return mask.reshape(n, -1).any(-1).nonzero().flatten().tolist()
 
 
 def _copy(td: TensorDictBase) -> TensorDictBase:

@@ -59,6 +59,14 @@ PROFILES: MappingProxyType[str, RenderProfile] = MappingProxyType(
 )
 
 
+def check_profile(profile: str) -> str:
+    """``profile`` if it names one of :data:`PROFILES` (the render profiles of both backends), else a
+    ValueError naming them."""
+    if profile not in PROFILES:
+        raise ValueError(f"unknown render_profile {profile!r}; choose one of {sorted(PROFILES)}.")
+    return profile
+
+
 def _shadow_size(profile: RenderProfile, side: int) -> int:
     size = 1 << max(0, int(np.ceil(np.log2(profile.shadow_per_pixel * side))))
     return int(min(max(size, profile.min_shadow), 4096))
@@ -270,8 +278,7 @@ _CONTEXTS: "weakref.WeakKeyDictionary[object, _Context]" = weakref.WeakKeyDictio
 
 def render_context(physics, profile: str, width: int, height: int) -> _Context:
     """The suite's render context of ``physics`` (created on first use)."""
-    if profile not in PROFILES:
-        raise ValueError(f"unknown render profile {profile!r}; choose one of {sorted(PROFILES)}.")
+    check_profile(profile)
     context = _CONTEXTS.get(physics)
     if context is None:
         context = _CONTEXTS[physics] = _Context(physics, profile, width, height)
@@ -322,8 +329,7 @@ class RenderPixels(Transform):
     ):
         if int(height) < 1 or int(width) < 1:
             raise ValueError(f"RenderPixels needs a positive image size, got height={height}, width={width}.")
-        if profile not in PROFILES:
-            raise ValueError(f"unknown render profile {profile!r}; choose one of {sorted(PROFILES)}.")
+        check_profile(profile)
         super().__init__(in_keys=[], out_keys=out_keys or ["pixels"])
         self.height, self.width = int(height), int(width)
         self.camera_id = camera_id

@@ -430,6 +430,12 @@ def test_bad_settings_are_refused_with_the_fix():
         make_env("cartpole", "swingup", backend="warp", num_envs=0)
     with pytest.raises(ValueError, match="camera_id=-1"):
         make_env("cartpole", "swingup", backend="warp", num_envs=1, camera_id=-1)
+    from dcs_torchrl.batched import WARP_PROFILES
+    from dcs_torchrl.render import PROFILES
+
+    assert set(WARP_PROFILES) == set(PROFILES)  # one name of each profile, checked once (render.check_profile)
+    with pytest.raises(ValueError, match="unknown render_profile"):
+        make_env("cartpole", "swingup", backend="warp", num_envs=1, render_profile="fastest")
     with pytest.raises(ValueError, match="render_chunks"):
         _chunks(4, 0)
     env = _warp(1)

@@ -147,7 +147,7 @@ def test_profile_conflict_and_bad_arguments():
     )
     with pytest.raises(ValueError, match="one render context"):
         env.reset()
-    with pytest.raises(ValueError, match="unknown render profile"):
+    with pytest.raises(ValueError, match="unknown render_profile"):
         RenderPixels(profile="ultra")
     with pytest.raises(ValueError, match="positive image size"):
         RenderPixels(0, 84)

@@ -32,6 +32,18 @@ _CUBE_CORNERS = tuple(itertools.product((1.0, -1.0), repeat=3))
 _MAX_HALF_ANGLE = math.radians(89.0)  # a wider frustum is taken to see all of every face
 
 
+def skybox_texture(model) -> int | None:
+    """The model's skybox texture (the first of type ``mjTEXTURE_SKYBOX``; not always texture 0), or ``None``."""
+    skyboxes = np.flatnonzero(np.asarray(model.tex_type) == mujoco.mjtTexture.mjTEXTURE_SKYBOX)
+    return int(skyboxes[0]) if len(skyboxes) else None
+
+
+def cube_faces(texels: np.ndarray, width: int, height: int, channels: int) -> np.ndarray:
+    """A cube texture's bytes (``width x height``, faces stacked as MuJoCo stores them: six, or one shown on
+    all six) as ``[height // width, width, width, channels]``."""
+    return np.asarray(texels[: width * height * channels]).reshape(height // width, width, width, channels)
+
+
 def face_margin(coarsest_side: int) -> float:
     """Angle (radians) to widen a frustum by so that it covers every texel filtering may read.
 

@@ -33,6 +33,8 @@ import mujoco
 import numpy as np
 import torch
 
+from dcs_torchrl._skybox import cube_faces, skybox_texture
+
 from dcs_torchrl._private_api import render_offsets
 
 #: The labels of ``masks`` (uint8 per pixel).
@@ -121,13 +123,12 @@ class WorldState:
 
 def skybox_faces(model) -> np.ndarray:
     """The model's skybox as uint8 ``[6 or 1, side, side, 3]`` (its texture data, faces stacked)."""
-    skyboxes = np.flatnonzero(model.tex_type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)
-    if len(skyboxes) == 0:
+    sky = skybox_texture(model)
+    if sky is None:
         return np.zeros((1, 1, 1, 3), np.uint8)
-    sky = int(skyboxes[0])
-    width, height, nc = int(model.tex_width[sky]), int(model.tex_height[sky]), int(model.tex_nchannel[sky])
     adr = int(model.tex_adr[sky])
-    data = np.asarray(model.tex_data[adr: adr + width * height * nc]).reshape(height // width, width, width, nc)
+    data = cube_faces(model.tex_data[adr:], int(model.tex_width[sky]), int(model.tex_height[sky]),
+                      int(model.tex_nchannel[sky]))
     return np.ascontiguousarray(data[..., :3])
 
 

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from dcs_torchrl._scene import Scene, originals
+from dcs_torchrl._skybox import cube_faces, skybox_texture
 from dcs_torchrl.distractions.base import DistractionTransform, check_scale
 from dcs_torchrl.videos import ArraySource, VideoSource, open_source
 
@@ -158,10 +159,9 @@ class BackgroundDistraction(DistractionTransform):
                 raise ValueError("this model has no 'grid' material (the floor): pass ground_alpha=None.")
         if not self.active:
             return
-        skyboxes = np.flatnonzero(model.tex_type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)
-        if len(skyboxes) == 0:
+        sky = self._sky = skybox_texture(model)
+        if sky is None:
             raise ValueError("this model has no skybox texture to show background videos on: use num_videos=0.")
-        sky = self._sky = int(skyboxes[0])
         width, height = originals(scene.physics).tex_size[sky]
         s = self.texture_size
         if int(model.tex_nchannel[sky]) != 3 or 6 * s * s > width * height:
@@ -171,7 +171,7 @@ class BackgroundDistraction(DistractionTransform):
             )
         self._sky_faces = None
         if self.blend < 1:
-            data = originals(scene.physics).texture(sky).reshape(height // width, width, width, 3)
+            data = cube_faces(originals(scene.physics).texture(sky), width, height, 3)
             faces = [data[min(i, len(data) - 1)] for i in range(6)]  # one face repeated, or six
             self._sky_faces = [cv2.resize(f, (s, s), interpolation=cv2.INTER_AREA) for f in faces]
 

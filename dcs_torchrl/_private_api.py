@@ -61,6 +61,14 @@ _prepare_value_estimator_kwargs``              ``make_value_estimator``'s defaul
                                                (sky, see-through floor, labels) in one pass;
                                                ``get_rgb`` / ``get_segmentation`` copy each
                                                buffer out apart, and nothing public gives rays.
+dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.batch_physics`: steps the
+``._step_limit``, ``._reset_next_step``,       physics of a batch's envs without their
+``._n_sub_steps``                              ``step`` (MuJoCo's C over threads), so keeps
+                                               their episode clocks as ``step`` keeps them; no
+                                               public accessor has them.
+``torchrl._utils.seed_generator``              :mod:`dcs_torchrl.datasets.metadata`: the seed
+                                               ``EnvBase.set_seed`` returns, for episode k's
+                                               seed without building k envs.
 ``RenderContext._megakernel``                  :mod:`dcs_torchrl.warp_render`: MuJoCo Warp
                                                builds a context's kernel at its first render
                                                and keeps it there; a renderer renders once when
@@ -74,12 +82,14 @@ import weakref
 from typing import NamedTuple
 
 from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_tolerance
+from torchrl._utils import seed_generator
 from torchrl.objectives.utils import _vmap_func as vmap_func
 
 __all__ = [
     "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "control_timestep", "dm_physics",
+    "episode_clock", "set_episode_clock", "sub_steps",
     "free_foreign_render_contexts", "priority_weight", "reduce_loss", "RenderOffsets", "render_offsets", "replace_set_seed",
-    "sac_alpha_loss",
+    "sac_alpha_loss", "seed_generator",
     "set_missing_tolerance", "value_estimator_kwargs", "vmap_func",
 ]
 
@@ -101,8 +111,27 @@ PRIVATE_SYMBOLS = (
     ("torchrl.objectives.LossModule", "_maybe_get_priority_weight", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.LossModule", "_default_value_estimator", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.LossModule", "_prepare_value_estimator_kwargs", "dcs_torchrl.objectives.qtopt"),
-) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.warp_render")
+    ("torchrl._utils", "seed_generator", "dcs_torchrl.datasets.metadata"),
+) + tuple(("dm_control.rl.control.Environment", field, "dcs_torchrl.batch_physics")
+          for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.warp_render")
           for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel"))
+
+
+def episode_clock(dm_env) -> tuple[int, float, bool]:
+    """A dm_control ``Environment``'s control steps this episode, its time limit in control steps and
+    whether its episode is over (its next ``step`` resets it)."""
+    return dm_env._step_count, dm_env._step_limit, dm_env._reset_next_step
+
+
+def set_episode_clock(dm_env, count: int, over: bool) -> None:
+    """Sets what ``Environment.step`` sets after stepping: the count and whether the episode ended."""
+    dm_env._step_count = count
+    dm_env._reset_next_step = over
+
+
+def sub_steps(dm_env) -> int:
+    """A dm_control ``Environment``'s physics steps per control step."""
+    return int(dm_env._n_sub_steps)
 
 
 def base_set_seed(base_env):

@@ -10,8 +10,8 @@ contiguous parts of the batch, one thread each), each control step's :class:`Tas
 into arrays, then the rewards and the last step's observation computed over all the envs at once. The
 states, rewards, observations and episode ends are dm_control's, bit for bit (``tests/test_batched.py``).
 
-The time limit is the dm_control env's own count (its ``_step_count``, ``_step_limit`` and
-``_reset_next_step``, kept as ``Environment.step`` keeps them), so each env stays a dm_control env that
+The time limit is the dm_control env's own count (its episode clock, kept as ``Environment.step`` keeps
+it: :func:`dcs_torchrl._private_api.episode_clock`), so each env stays a dm_control env that
 its own ``reset`` (the task's ``initialize_episode``) and ``step`` continue exactly.
 """
 from __future__ import annotations
@@ -26,6 +26,7 @@ import mujoco
 import numpy as np
 from dm_control.rl.control import PhysicsError
 
+from dcs_torchrl._private_api import episode_clock, set_episode_clock, sub_steps
 from dcs_torchrl.task_arrays import Ids, TaskArrays
 
 __all__ = ["BatchPhysics", "TRIALS", "physics_threads"]
@@ -74,7 +75,7 @@ class BatchPhysics:
         self.threads = most if threads is not None else self._schedule[0]
         first = self.envs[0].physics
         self.ids = Ids(first.model.ptr)
-        self._sub_steps = [int(env._n_sub_steps) for env in self.envs]
+        self._sub_steps = [sub_steps(env) for env in self.envs]
         self._rk4 = [env.physics.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 for env in self.envs]
         # per env: its MjModel, MjData, the data arrays recorded, its warning counters
         self._models = [env.physics.model.ptr for env in self.envs]
@@ -97,7 +98,7 @@ class BatchPhysics:
 
     def over(self, i: int) -> bool:
         """Whether env ``i``'s episode has ended (dm_control resets it on its next step)."""
-        return bool(self.envs[i]._reset_next_step)
+        return bool(episode_clock(self.envs[i])[2])
 
     def step(self, indices: np.ndarray, actions: np.ndarray, observe: bool = True):
         """One agent step (``frame_skip`` control steps, fewer where an episode reaches its time limit) of
@@ -110,8 +111,9 @@ class BatchPhysics:
         """
         indices = np.asarray(indices, dtype=np.int64)
         n = len(indices)
-        counts = np.array([self.envs[i]._step_count for i in indices], dtype=np.float64)
-        limits = np.array([self.envs[i]._step_limit for i in indices], dtype=np.float64)
+        clocks = [episode_clock(self.envs[i]) for i in indices]
+        counts = np.array([count for count, _, _ in clocks], dtype=np.float64)
+        limits = np.array([limit for _, limit, _ in clocks], dtype=np.float64)
         # control steps until the limit: dm_control ends the episode at the first step with count >= limit
         steps = np.minimum(self.frame_skips[indices], np.maximum(1, np.ceil(limits - counts))).astype(np.int64)
         truncated = counts + steps >= limits
@@ -126,9 +128,7 @@ class BatchPhysics:
         if len(self._timings) > 1:
             self._choose_threads((time.perf_counter() - start) / n)
         for i, count, ended in zip(indices.tolist(), (counts + steps).tolist(), truncated.tolist()):
-            env = self.envs[i]
-            env._step_count = int(count) if math.isfinite(count) else count
-            env._reset_next_step = ended
+            set_episode_clock(self.envs[i], int(count) if math.isfinite(count) else count, ended)
         recorded = {f: values[:, :n] for f, values in self.record.items()}
         model = {f: values[indices] for f, values in self.model.items()}
         with np.errstate(all="ignore"):  # rows past an env's last step hold older states, masked out below

@@ -77,6 +77,7 @@ def live_objects(warp_context):
         "dm_control.mujoco.Physics": physics,
         "torchrl.objectives.SACLoss": loss,
         "mujoco_warp.RenderContext": warp_context[0],
+        "dm_control.rl.control.Environment": env.base_env._env,
     }
     yield objects
     env.close()
@@ -180,7 +181,8 @@ def test_serial_and_parallel_env_are_every_torchrl_batched_env():
 
 
 # The TorchRL / dm_control / MuJoCo Warp classes the package subclasses or reaches into.
-OWNERS = (LossModule, SACLoss, Transform, EnvBase, TransformedEnv, DMControlEnv, Physics, RenderContext)
+OWNERS = (LossModule, SACLoss, Transform, EnvBase, TransformedEnv, DMControlEnv, Physics, RenderContext,
+          suite.load("cartpole", "swingup"))  # a dm_control Environment: its attributes are set per instance
 # Protected hooks TorchRL documents for subclasses to call (its Transform docs' own examples).
 DOCUMENTED_HOOKS = {"_call"}
 

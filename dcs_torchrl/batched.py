@@ -30,7 +30,6 @@ from contextlib import contextmanager
 import mujoco
 import numpy as np
 import torch
-from dm_env import StepType
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
@@ -136,22 +135,10 @@ class _World:
             self.background.writes_model = False
         self.physics = locate(self.distractions[0], strict=True).physics if self.distractions else self.dm.physics
 
-    def step(self, action: np.ndarray):
-        """``frame_skip`` dm_control steps (stopping at the episode's end), as ``DMControlEnv._step``
-        (the distractions' step follows, by the batch). Returns ``(observation, reward, terminated, truncated)``."""
-        reward = 0
-        terminated = truncated = False
-        for _ in range(self.frame_skip):
-            step = self.dm.step(action)
-            if step.reward is not None:
-                reward = reward + step.reward
-            if step.step_type == StepType.LAST:
-                if np.isclose(step.discount, 1):
-                    truncated = True
-                else:
-                    terminated = True
-                break
-        return step.observation, reward, terminated, truncated
+    def step(self, action: np.ndarray) -> TensorDictBase:
+        """The TorchRL env's own step of its base env (``DMControlEnv``: the frame skip, stopping at the
+        episode's end), without the distractions (the batch steps them after). Returns its ``"next"``."""
+        return self.base.step(TensorDict({"action": torch.from_numpy(action)}, []))["next"]
 
 
 class BatchedSuiteEnv(EnvBase):
@@ -347,12 +334,6 @@ class BatchedSuiteEnv(EnvBase):
         for future in pending:
             future.result()
 
-    def _read(self, index: int, observation) -> None:
-        for key in self._state_keys:
-            name = "state" if key == "observation" and "observation" not in observation else key
-            self._obs[key][index] = np.reshape(observation[name], self._obs[key].shape[1:])
-        self._read_states(index)
-
     def _read_states(self, index: int) -> None:
         for key, t in zip(self._distraction_keys, self._worlds[index].exposed):
             self._states[key][index] = t.state()
@@ -388,10 +369,11 @@ class BatchedSuiteEnv(EnvBase):
                 for key in self._state_keys if observation is not None else ():
                     self._obs[key][fast] = observation[key].reshape(self._obs[key][fast].shape)
             for i in worlds if self.physics is None else sorted(set(worlds) - set(fast)):
-                observation, reward, terminated, truncated = self._worlds[i].step(actions[i])
-                self._reward[i] = reward
-                self._done[i] = (terminated, truncated, terminated or truncated)
-                self._read(i, observation)
+                out = self._worlds[i].step(actions[i])  # dm_control's step, through TorchRL's DMControlEnv
+                self._reward[i] = out["reward"].item()
+                self._done[i] = [out[key].item() for key in ("terminated", "truncated", "done")]
+                for key in self._state_keys:
+                    self._obs[key][i] = out[key].numpy()
             physics = time.perf_counter()
             for i in worlds:
                 for t in self._worlds[i].distractions:

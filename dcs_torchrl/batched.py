@@ -86,7 +86,8 @@ def compact_skies(settings) -> Iterator[None]:
     of a batch after the first, whose own sky is never rendered (the batch renders from the first
     env's model, and each env's background distraction hands its sky to the renderer). An env reads
     its sky only to blend videos onto it (``0 < background_blend < 1``); then nothing changes. The
-    physics are the same; at ``texture_size`` 256 each model holds 1.2 MB of sky instead of 11.8 MB."""
+    physics are the same; each model then holds ``texture_size``² texels of sky a face instead of 800²
+    (docs/performance.md, "Memory")."""
     from dm_control.suite import common
 
     original = common.ASSETS.get(_SKYBOX_ASSET)
@@ -110,7 +111,7 @@ class _SkySink:
     def __init__(self, rows: np.ndarray):
         self.rows = rows  # [faces, side, side, 3] of this world
 
-    def upload_cube(self, tex_id: int, faces: list[np.ndarray], unchanging: bool = False) -> None:
+    def upload_cube(self, tex_id: int, faces: list[np.ndarray]) -> None:
         if len(faces) == 1:  # one face on all six, in a batch whose other worlds show six: the same pixels
             self.rows[...] = faces[0]
             return

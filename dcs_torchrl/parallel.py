@@ -1,10 +1,9 @@
 """The suite's parallel env: n TorchRL envs, the first here and one per spawned process for the rest, stepped side by side.
 
-TorchRL's ``ParallelEnv`` scales poorly with the suite's envs, whose step is one render of a
-few milliseconds: its main process spin-polls shared-memory flags while the workers step (one
-core busy doing nothing, taken from the workers on a small machine) and does a few milliseconds
-of TensorDict bookkeeping per batched step, while the workers wait (docs/performance.md, "Parallel
-envs"). :class:`ParallelSuiteEnv` keeps what makes ``ParallelEnv`` fast (observations written
+TorchRL's ``ParallelEnv`` scales poorly with the suite's envs, whose step is one render: its main
+process spin-polls shared-memory flags while the workers step (one core busy doing nothing, taken
+from the workers on a small machine) and does TensorDict bookkeeping per batched step while the
+workers wait (what it costs: docs/performance.md, "Parallel envs"). :class:`ParallelSuiteEnv` keeps what makes ``ParallelEnv`` fast (observations written
 into shared memory, not pickled) and waits the way a pipe waits: each worker steps its own env
 exactly as a single env is stepped and writes its ``"next"`` entries into one shared
 TensorDict; a byte on a pipe says "step", another says "done", and the main process steps its own
@@ -49,7 +48,7 @@ _POLL_S = 1.0  # how often a wait checks that the workers are alive
 _BUFFERS = torch.device("cpu")  # where the workers' shared buffers live (shared memory)
 _SPECS = ("full_observation_spec", "full_action_spec", "full_reward_spec", "full_done_spec", "full_state_spec")
 #: Default seconds a process polls its pipes before it sleeps (``spin_s``): a sleeping process
-#: takes 0.1-0.3 ms to wake on a virtual machine's idle core, twice a step.
+#: wakes late on a virtual machine's idle core, twice a step (docs/performance.md, "Parallel envs").
 SPIN_S = 0.003
 
 
@@ -86,9 +85,9 @@ class ParallelSuiteEnv(EnvBase):
             naming the machine's EGL devices.
         spin_s (float): seconds each waiting process polls its pipes (busy-waits) before it sleeps
             in ``select``: a worker after its step, this process for the workers' answers. A
-            woken process starts 0.1-0.3 ms late on a virtual machine; a polling one at once, for
-            a core's time while it polls. Default :data:`SPIN_S` (3 ms; what it gains:
-            docs/performance.md, "Parallel envs"); ``0`` sleeps at once.
+            woken process starts late on a virtual machine; a polling one at once, for a core's time
+            while it polls. Default :data:`SPIN_S` (3 ms; what it gains: docs/performance.md,
+            "Parallel envs"); ``0`` sleeps at once.
         first_here (bool, optional): build and step the first env in this process, while the other
             ``num_workers - 1`` step theirs in their own processes; ``False``: every env in a worker.
             The episodes are the same either way. ``None`` (default): ``True`` for two or more envs

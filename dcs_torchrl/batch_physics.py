@@ -29,10 +29,13 @@ from dm_control.rl.control import PhysicsError
 from dcs_torchrl._private_api import episode_clock, set_episode_clock, sub_steps
 from dcs_torchrl.task_arrays import Ids, TaskArrays
 
-__all__ = ["BatchPhysics", "TRIALS", "physics_threads"]
+__all__ = ["BatchPhysics", "RETUNE", "TRIALS", "physics_threads"]
 
 #: Steps each thread count is tried on when :class:`BatchPhysics` chooses its threads.
 TRIALS = 5
+#: Steps after which the choice is measured again: early in an episode a walker, in the air, costs
+#: MuJoCo less than on the floor with its contacts, where threads gain more.
+RETUNE = 200
 
 
 def physics_threads() -> int:
@@ -51,7 +54,8 @@ class BatchPhysics:
             the envs or of each.
         threads (int, optional): threads the physics run on. ``None``: chosen by measurement among 1, 2,
             4, ... up to :func:`physics_threads` (each tried on :data:`TRIALS` steps, the counts in
-            turn, then the fastest per env by median kept): a task whose MuJoCo step is short gains nothing from threads that
+            turn, then the fastest per env by median kept, and measured again every :data:`RETUNE`
+            steps): a task whose MuJoCo step is short gains nothing from threads that
             take the GIL in turn between calls, one whose step is long gains from every core. The
             states are the same for any number.
     """
@@ -66,13 +70,16 @@ class BatchPhysics:
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
             raise ValueError(f"physics_threads must be a positive integer (or None), got {threads!r}.")
         most = min(physics_threads() if threads is None else threads, n)
-        #: the thread counts still to try (each TRIALS steps), then the one kept; its seconds per env-step
+        # the thread counts tried (each on TRIALS steps, in turn), their seconds per env-step, the schedule
         self._trials = [] if threads is not None else [t for t in (2 ** e for e in range(most.bit_length())) if t <= most]
         if self._trials and self._trials[-1] != most:
             self._trials.append(most)
+        if len(self._trials) < 2:
+            self._trials = []  # nothing to choose from
+        self._kept = 0
         self._timings: dict[int, list[float]] = {t: [] for t in self._trials}
         self._schedule = self._trials * TRIALS  # the counts in turn, round after round: noise hits each alike
-        self.threads = most if threads is not None else self._schedule[0]
+        self.threads = self._schedule[0] if self._schedule else most
         first = self.envs[0].physics
         self.ids = Ids(first.model.ptr)
         self._sub_steps = [sub_steps(env) for env in self.envs]
@@ -127,6 +134,12 @@ class BatchPhysics:
                 future.result()
         if len(self._timings) > 1:
             self._choose_threads((time.perf_counter() - start) / n)
+        elif self._trials:  # chosen: measured again every RETUNE steps (a task's step costs change over an episode)
+            self._kept += 1
+            if self._kept >= RETUNE:
+                self._schedule = self._trials * TRIALS
+                self._timings = {t: [] for t in self._trials}
+                self.threads = self._schedule[0]
         for i, count, ended in zip(indices.tolist(), (counts + steps).tolist(), truncated.tolist()):
             set_episode_clock(self.envs[i], int(count) if math.isfinite(count) else count, ended)
         recorded = {f: values[:, :n] for f, values in self.record.items()}
@@ -151,6 +164,7 @@ class BatchPhysics:
             self.threads = self._schedule[0]
             return
         self.threads = min(self._timings, key=lambda t: float(np.median(self._timings[t])))
+        self._kept = 0  # steps since: the choice is measured again after RETUNE of them
         self._timings = {self.threads: []}
 
     def _parts(self, n: int) -> list[slice]:

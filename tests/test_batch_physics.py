@@ -3,20 +3,28 @@ import numpy as np
 import pytest
 from dm_control import suite
 
-from dcs_torchrl.batch_physics import TRIALS, BatchPhysics
+from dcs_torchrl.batch_physics import RETUNE, TRIALS, BatchPhysics
 from dcs_torchrl.task_arrays import task_arrays
 
 
-def _run(threads, steps: int = 2 * TRIALS + 3, n: int = 5):
+def _run(threads, steps: int = 2 * TRIALS + RETUNE + 3, n: int = 5):
     envs = [suite.load("walker", "walk", task_kwargs={"random": i}) for i in range(n)]
     for env in envs:
         env.reset()
     batch = BatchPhysics(envs, task_arrays("walker", "walk", envs[0].task), [2, 3, 2, 3, 2][:n], threads)
     rng = np.random.default_rng(0)
-    out = []
+    out, tried = [], []
     for _ in range(steps):
         reward, ended, observation = batch.step(np.arange(n), rng.uniform(-1, 1, (n, 6)))
         out.append((reward, ended, observation["velocity"], np.stack([e.physics.data.qpos.copy() for e in envs])))
+        tried.append(batch.threads)
+        for i in np.flatnonzero(ended):
+            envs[i].reset()
+            batch.after_reset(i)
+    if threads is None and len(batch._trials) > 1:  # tried in turn, kept, tried again after RETUNE steps
+        assert tried[:2 * TRIALS - 1] == [2, 1] * (TRIALS - 1) + [2]
+        assert len(set(tried[2 * TRIALS: 2 * TRIALS + RETUNE - 1])) == 1
+        assert tried[2 * TRIALS + RETUNE - 1: 2 * TRIALS + RETUNE + 1] == [1, 2]
     chosen = batch.threads
     batch.close()
     return out, chosen

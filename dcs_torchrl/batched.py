@@ -236,8 +236,8 @@ class BatchedSuiteEnv(EnvBase):
         first = self._worlds[0].base
         arrays = task_arrays(first.env_name, first.task_name, self._worlds[0].dm.task)
         if arrays is None or any(task_arrays(w.base.env_name, w.base.task_name, w.dm.task) is not arrays
-                                 for w in self._worlds):
-            return None
+                                 or not w.dm.physics.legacy_step for w in self._worlds):
+            return None  # BatchPhysics steps as dm_control's legacy step (its default) does
         return BatchPhysics([w.dm for w in self._worlds], arrays, [w.frame_skip for w in self._worlds], threads)
 
     def _set_specs(self, env: TransformedEnv, height: int, width: int) -> None:

@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 from dm_control import suite
+from dm_control.rl.control import PhysicsError
 
 from dcs_torchrl.batch_physics import RETUNE, TRIALS, BatchPhysics
 from dcs_torchrl.task_arrays import task_arrays
@@ -46,3 +47,16 @@ def test_bad_thread_counts_are_refused():
     for bad in (0, 1.5, True):
         with pytest.raises(ValueError, match="physics_threads must be a positive integer"):
             BatchPhysics([env], task_arrays("cartpole", "swingup", env.task), 8, bad)
+
+
+def test_a_diverging_state_raises_dm_controls_physics_error():
+    envs = [suite.load("cheetah", "run", task_kwargs={"random": i}) for i in range(2)]
+    for env in envs:
+        env.reset()
+    batch = BatchPhysics(envs, task_arrays("cheetah", "run", envs[0].task), 4, 1)
+    envs[1].physics.data.qvel[:] = 1e300  # MuJoCo warns (bad qacc) and resets the data, as under dm_control's step
+    with pytest.raises(PhysicsError, match="Physics state is invalid"):
+        batch.step(np.arange(2), np.zeros((2, 6)))
+    envs[0].physics.data.qvel[:] = 1e300
+    with pytest.raises(PhysicsError, match="Physics state is invalid"):
+        envs[0].step(np.zeros(6))

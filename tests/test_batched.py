@@ -258,6 +258,32 @@ def test_an_env_not_stepped_keeps_its_state():
     env.close()
 
 
+def test_the_frames_a_rollout_returns_are_those_stepped_alone():
+    """Frame t of env.rollout(T) equals frame t of the same env stepped by hand: no frame is a view of a
+    buffer the next step overwrites."""
+    actions = _actions(EPISODE + 2, 2)
+
+    class Replay:  # a policy replaying the actions, one a call
+        def __init__(self):
+            self.t = 0
+
+        def __call__(self, td):
+            self.t += 1
+            return td.set("action", actions[self.t - 1])
+
+    env = _warp(2, pixels_only=True, expose_distractions=False)
+    env.set_seed(4)
+    rolled = env.rollout(len(actions), Replay(), break_when_any_done=False)["next", "pixels"]
+    env.set_seed(4)
+    td, stepped = env.reset(), []
+    for action in actions:
+        out, td = env.step_and_maybe_reset(td.set("action", action))
+        stepped.append(out["next", "pixels"])
+    env.close()
+    assert torch.equal(rolled, torch.stack(stepped, dim=1))
+    assert not torch.equal(rolled[:, 0], rolled[:, 1])
+
+
 def test_rollout_with_partial_steps_and_a_collector():
     env = _warp(2, pixels_only=True, expose_distractions=False)
     env.set_seed(0)

@@ -172,22 +172,22 @@ def batched_pixel_env(
     Warp on the CPU (:class:`~dcs_torchrl.batched.BatchedSuiteEnv`; the same episodes as the GL
     envs' for the same seed); ``render_device`` is then unused.
 
-    One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several
-    run in a :class:`~dcs_torchrl.ParallelSuiteEnv` (the first stepped in this process while
-    spawned workers step the others). ``render_device`` (an EGL device index, :func:`render_device`): the
-    device every env renders on; envs that must render on another device than this process's
-    all run in workers.
+    One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several are
+    ``make_env(..., num_envs=num_workers)``: a :class:`~dcs_torchrl.ParallelSuiteEnv` (the first stepped
+    in this process while spawned workers step the others), the pixel handling over the batch.
+    ``render_device`` (an EGL device index, :func:`render_device`): the device every env renders on;
+    envs that must render on another device than this process's all run in workers.
     """
     if num_workers < 1:
         raise ValueError(f"num_workers must be >= 1, got {num_workers}.")
     make = functools.partial(pixel_env, settings, frame_stack=frame_stack, image_size=image_size, render_profile=render_profile)
     elsewhere = render_device is not None and render_device != process_render_device()
-    if backend == "warp":
-        batched = make(backend="warp", num_envs=num_workers)
+    if backend == "warp" or (num_workers > 1 and not elsewhere):  # make_env's N envs: the batch, or a process each
+        batched = make(backend=backend, num_envs=num_workers)
     elif num_workers == 1 and not elsewhere:
         batched = SerialEnv(1, make)
-    else:
-        batched = ParallelSuiteEnv(num_workers, make, render_devices=None if render_device is None else [render_device])
+    else:  # every env in a worker that renders on the device asked
+        batched = ParallelSuiteEnv(num_workers, make, render_devices=[render_device])
     if isinstance(batched, TransformedEnv):  # the warp batch and its pixel handling: one TransformedEnv
         batched.append_transform(RewardSum())
         env = batched

@@ -10,6 +10,7 @@ from omegaconf import OmegaConf
 from torchrl.envs import DMControlEnv, SerialEnv
 
 import dcs_torchrl.training.envs as training_envs
+from dcs_torchrl import parallel
 from dcs_torchrl.envs import resolve_settings
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunDirectory
@@ -31,7 +32,9 @@ def _evaluate_in_this_process(make, policy, episodes, workers, *, seed):
 
 @pytest.fixture
 def workers_in_process(monkeypatch):
-    monkeypatch.setattr(training_envs, "ParallelSuiteEnv", lambda num_workers, make, **_: SerialEnv(num_workers, make))
+    in_process = lambda num_workers, make, **_: SerialEnv(num_workers, make)  # noqa: E731
+    monkeypatch.setattr(training_envs, "ParallelSuiteEnv", in_process)
+    monkeypatch.setattr(parallel, "ParallelSuiteEnv", in_process)  # make_env(num_envs=N)'s GL envs
     monkeypatch.setattr(loop, "evaluate_in_processes", _evaluate_in_this_process)
 
 

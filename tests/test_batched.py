@@ -335,10 +335,12 @@ def test_a_clean_frame_is_the_gl_frame_within_a_few_grey_levels():
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (benchmarks/gpu_check.sh batched)")
 @pytest.mark.parametrize("preset", ["none", "medium"])  # not "benchmark": pytest-benchmark's fixture
-def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(preset):
-    """The same seed rendered by Warp on CUDA and on the CPU, without and with videos, over a few steps."""
-    frames = []
-    for device in ("cpu", "cuda"):
+@pytest.mark.parametrize("order", [("cuda", "cpu"), ("cpu", "cuda")], ids=["cuda-first", "cpu-first"])
+def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(preset, order):
+    """The same seed rendered by Warp on CUDA and on the CPU, without and with videos, over a few steps; both
+    orders in one process (a CPU Warp env first has failed on an H200 box: docs/notes/performance_log.md)."""
+    frames = {}
+    for device in order:
         env = make_env("cheetah", "run", benchmark=preset, dynamic=True, num_envs=4, backend="warp", device=device,
                        height=48, width=48, seed=3)
         td, run = env.reset(), []
@@ -346,8 +348,8 @@ def test_cuda_frames_are_the_cpu_warp_frames_within_a_grey_level(preset):
             td = env.step(td.set("action", action.to(device)))["next"]
             run.append(td["pixels"].cpu().int())
         env.close()
-        frames.append(torch.stack(run))
-    difference = (frames[0] - frames[1]).abs()
+        frames[device] = torch.stack(run)
+    difference = (frames["cpu"] - frames["cuda"]).abs()
     assert difference.max() <= 1 and difference.float().mean() < 0.05, (difference.max(), difference.float().mean())
 
 

@@ -87,7 +87,7 @@ case $stage in
     # each order in its own process: a CUDA error poisons the process for the tests after it
     step cuda_first "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider -p no:benchmark tests/test_batched.py -k "cuda_frames and cuda-first"
     step cpu_first "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider -p no:benchmark tests/test_batched.py -k "cuda_frames and cpu-first"
-    step physics_only "$(left 150)" python3 benchmarks/batched_speed.py --physics-only --sizes 256 --rounds 1 --seconds 2 \
+    step physics_only "$(left 150)" python3 benchmarks/batched_speed.py --physics-only --sizes 128 --rounds 1 --seconds 2 \
       --tasks cartpole:swingup walker:walk
     step batched_speed "$(left 300)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
       --presets medium --sizes 256 1024 --rounds 2 --seconds 3

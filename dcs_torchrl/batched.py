@@ -371,6 +371,8 @@ class BatchedSuiteEnv(EnvBase):
                     self._obs[key][fast] = observation[key].reshape(self._obs[key][fast].shape)
             for i in worlds if self.physics is None else sorted(set(worlds) - set(fast)):
                 out = self._worlds[i].step(actions[i])  # dm_control's step, through TorchRL's DMControlEnv
+                if self.physics is not None:  # an episode over: dm_control's step reset it (the task drew anew)
+                    self.physics.after_reset(i)
                 self._reward[i] = out["reward"].item()
                 self._done[i] = [out[key].item() for key in ("terminated", "truncated", "done")]
                 for key in self._state_keys:

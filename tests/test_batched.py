@@ -131,6 +131,30 @@ def test_each_task_over_arrays_runs_the_episodes_of_one_gl_env_with_its_seed(dom
     assert any(b["reward"].any() for b in batched[1:])
 
 
+def test_an_env_stepped_past_its_episode_end_without_a_reset_does_what_one_gl_env_does():
+    """dm_control resets an env stepped after its episode ended (reward 0, the next episode's draw: reacher's
+    target size too); the batch's next steps over arrays continue that episode as one GL env does."""
+    settings = {**SETTINGS, "action_repeat": 300, "height": 24, "width": 24}
+    actions = (torch.rand(7, 2, 2, generator=torch.Generator().manual_seed(2)) * 2 - 1).double()
+    env = make_env("reacher", "easy", num_envs=2, backend="warp", device=DEVICE, seed=3, **settings)
+    td, batched = env.reset(), []
+    for action in actions:  # no reset at the episode's end (step 4)
+        td = env.step(td.set("action", action))["next"]
+        batched.append(td.exclude("pixels").clone())
+    for i, world in enumerate(env._worlds):  # the rewards over arrays read the new episode's target size
+        assert np.array_equal(env.physics.model["geom_size"][i], world.physics.model.geom_size)
+    env.close()
+    factory = functools.partial(make_env, "reacher", "easy", **settings)
+    for i, seed in enumerate(_seeds(3, 2, factory)):
+        alone = factory()
+        alone.set_seed(seed)
+        td = alone.reset()
+        for t, action in enumerate(actions[:, i]):
+            td = alone.step(td.set("action", action))["next"]
+            _assert_same(batched[t][i], td.exclude("pixels"), f"env {i}, step {t}")
+        alone.close()
+
+
 def test_a_task_not_over_arrays_keeps_dm_controls_step_and_its_episodes():
     settings = {**SETTINGS, "action_repeat": 300, "height": 24, "width": 24}
     env = make_env("hopper", "stand", num_envs=2, backend="warp", device=DEVICE, seed=2, **settings)

@@ -121,6 +121,8 @@ def test_benchmark_none_is_plain_dm_control():
     assert torch.equal(rollout(env, 5)["next", "pixels"], rollout(plain, 5)["next", "pixels"])
 
 
+@pytest.mark.slow  # by default: tests/distractions/test_contract.py::test_specs_parallel (the same transforms in
+# TorchRL's ParallelEnv: specs, a stream per worker) and tests/test_parallel.py (make_env in spawned workers)
 def test_parallel_env_workers_get_their_own_streams():
     factory = functools.partial(make_env, "cartpole", "swingup", benchmark="medium", dynamic=True, expose_distractions=True,
                                 height=32, width=32)
@@ -142,7 +144,7 @@ def test_serial_env_and_collectors():
     batches = [batch for batch in collector]
     assert len(batches) == 2 and batches[0]["next", "pixels"].shape[-3:] == (32, 32, 3)
     collector.shutdown()
-    multi = MultiSyncCollector([factory, factory], None, frames_per_batch=8, total_frames=16)
+    multi = MultiSyncCollector([factory], None, frames_per_batch=8, total_frames=16)  # one spawned worker: seconds each
     multi.set_seed(0)
     frames = sum(batch.numel() for batch in multi)
     multi.shutdown()

@@ -26,6 +26,16 @@ FACTORY = functools.partial(make_env, "cartpole", "swingup", **SETTINGS)
 WORKER_LAYOUTS = [pytest.param(False, marks=pytest.mark.slow), True]
 
 
+@pytest.fixture(scope="module")
+def env2():
+    """``ParallelSuiteEnv(2, FACTORY)`` as a user builds it (the first env here, one worker), shared by
+    the tests that seed and reset it before use: each spawn of a worker costs seconds."""
+    env = ParallelSuiteEnv(2, FACTORY)
+    yield env
+    env.close(raise_if_closed=False)
+
+
+@functools.cache
 def _seeds(seed: int, n: int) -> list[int]:
     """Each worker's seed under TorchRL's chain: the next is what the previous one's set_seed returns."""
     seeds = [seed]
@@ -52,12 +62,18 @@ def _one_env_run(seed: int, actions: torch.Tensor) -> list:
     return out
 
 
-@pytest.mark.parametrize("first_here, spin_s", [(False, dcs.parallel.SPIN_S), (True, dcs.parallel.SPIN_S), (True, 0)],
-                         ids=["all-in-workers", "first-here", "first-here-no-polling"])
-def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin_s):
+# Both layouts and both ways of waiting (polling, then sleeping; sleeping at once) by default: every env
+# in workers sleeping at once, and the default env (the first here, polling first); the other two under -m slow.
+@pytest.mark.parametrize("first_here, spin_s", [(False, 0), (True, dcs.parallel.SPIN_S),
+                                                pytest.param(False, dcs.parallel.SPIN_S, marks=pytest.mark.slow),
+                                                pytest.param(True, 0, marks=pytest.mark.slow)],
+                         ids=["all-in-workers-no-polling", "first-here", "all-in-workers", "first-here-no-polling"])
+def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin_s, request):
     n, steps = 2, 2 * EPISODE + 3  # across an episode end and a reset
-    env = ParallelSuiteEnv(n, FACTORY, first_here=first_here, spin_s=spin_s)
+    shared = first_here and spin_s == dcs.parallel.SPIN_S
+    env = request.getfixturevalue("env2") if shared else ParallelSuiteEnv(n, FACTORY, first_here=first_here, spin_s=spin_s)
     assert [pipe is None for pipe in env._pipes] == [first_here, False]
+    assert env._spin_s == spin_s
     env.set_seed(7)
     actions = _actions(steps, n)
     td, batched = env.reset(), []
@@ -65,7 +81,8 @@ def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin
         td.set("action", action)
         out, td = env.step_and_maybe_reset(td)
         batched.append(out["next"].select("pixels", "reward", "done", "distractions"))
-    env.close()
+    if not shared:
+        env.close()
     for worker, seed in enumerate(_seeds(7, n)):
         alone = _one_env_run(seed, actions[:, worker])
         for k, (got, want) in enumerate(zip(batched, alone)):
@@ -73,9 +90,14 @@ def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin
     assert not torch.equal(batched[0]["pixels"][0], batched[0]["pixels"][1])  # workers differ
 
 
+def _layout(first_here: bool, request) -> ParallelSuiteEnv:
+    """The shared default env (the first env here), or a new one with every env in workers."""
+    return request.getfixturevalue("env2") if first_here else ParallelSuiteEnv(2, FACTORY, first_here=False)
+
+
 @pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
-def test_specs_partial_reset_and_a_collector(first_here):
-    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
+def test_specs_and_partial_reset(first_here, request):
+    env = _layout(first_here, request)
     check_env_specs(env, seed=0)
     assert env.batch_size == (2,) and env.observation_spec["pixels"].shape == (2, 32, 32, 3)
     env.set_seed(0)
@@ -89,6 +111,12 @@ def test_specs_partial_reset_and_a_collector(first_here):
         assert not torch.equal(td["pixels"][reset], stepped[reset]), reset
         assert torch.equal(td["pixels"][1 - reset], stepped[1 - reset]), reset
         assert not torch.equal(td["pixels"][reset], first[reset])  # a new episode: a new scene
+    if not first_here:
+        _collect(env)
+
+
+def _collect(env: ParallelSuiteEnv) -> None:
+    """A TorchRL collector collects from ``env`` (and closes it when done)."""
     collector = Collector(env, None, frames_per_batch=4, total_frames=8)
     batches = [b for b in collector]
     assert [tuple(b.batch_size) for b in batches] == [(2, 2), (2, 2)]
@@ -112,12 +140,12 @@ def _alone(seed: int, actions: torch.Tensor, reset_after: int | None = None) -> 
 
 
 @pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
-def test_an_env_not_reset_continues_its_episode(first_here):
+def test_an_env_not_reset_continues_its_episode(first_here, request):
     """A partial reset restarts the marked env only: the other's next steps are those of one env
     stepped without a reset (TorchRL's reset keeps the old entries of the envs not reset, so the
     returned frames alone cannot tell)."""
     actions = _actions(6, 2)
-    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
+    env = _layout(first_here, request)
     for reset in (0, 1):
         env.set_seed(7)
         td = env.reset()
@@ -133,15 +161,16 @@ def test_an_env_not_reset_continues_its_episode(first_here):
             alone = _alone(seed, actions[:, worker], reset_after=3 if worker == reset else None)[3:]
             for k, (got, want) in enumerate(zip(later, alone)):
                 assert (got[worker] == want).all(), f"reset {reset}: worker {worker}, step {k} after the reset"
-    env.close()
+    if not first_here:
+        env.close()
 
 
 @pytest.mark.parametrize("first_here", WORKER_LAYOUTS, ids=["all-in-workers", "first-here"])
-def test_an_env_not_stepped_waits_and_then_continues(first_here):
+def test_an_env_not_stepped_waits_and_then_continues(first_here, request):
     """``"_step"`` (written by ``rollout(break_when_all_done=True)``) steps the marked envs only: the
     other keeps its frame and done flags, with reward 0, and later continues from where it was."""
     actions = _actions(3, 2)
-    env = ParallelSuiteEnv(2, FACTORY, first_here=first_here)
+    env = _layout(first_here, request)
     env.set_seed(7)
     td = env.reset()
     td = env.step(td.set("action", actions[0]))["next"]
@@ -152,7 +181,8 @@ def test_an_env_not_stepped_waits_and_then_continues(first_here):
     assert not torch.equal(skipped["pixels"][1], before[1])
     skipped.pop("_step", None)
     out = env.step(skipped.set("action", actions[2]))["next"]
-    env.close()
+    if not first_here:
+        env.close()
     seeds = _seeds(7, 2)
     first = _alone(seeds[0], actions[[0, 2], 0])  # env 0 skipped the second action
     second = _alone(seeds[1], actions[:, 1])
@@ -161,10 +191,10 @@ def test_an_env_not_stepped_waits_and_then_continues(first_here):
 
 
 @pytest.mark.parametrize("device", ["cpu"] + (["cuda"] if torch.cuda.is_available() else []))
-def test_the_envs_device_holds_its_specs_and_outputs(device):
+def test_the_envs_device_holds_its_specs_and_outputs(device, request):
     """``device`` is where the env's specs and outputs are (the workers stay on the CPU); actions
-    on that device reach the workers."""
-    env = ParallelSuiteEnv(2, FACTORY, device=device)
+    on that device reach the workers. The CPU is the default's (the shared env's)."""
+    env = request.getfixturevalue("env2") if device == "cpu" else ParallelSuiteEnv(2, FACTORY, device=device)
     assert env.device == torch.device(device)
     assert env.observation_spec["pixels"].device == env.action_spec.device == torch.device(device)
     env.set_seed(7)
@@ -172,29 +202,17 @@ def test_the_envs_device_holds_its_specs_and_outputs(device):
     assert td["pixels"].device == torch.device(device)
     out = env.step(td.set("action", _actions(1, 2)[0].to(device)))["next"]
     assert out["pixels"].device == out["reward"].device == torch.device(device)
-    env.close()
+    if device != "cpu":
+        env.close()
     alone = _alone(_seeds(7, 2)[1], _actions(1, 2)[:, 1])
     assert torch.equal(out["pixels"][1].cpu(), alone[0]["pixels"])
 
 
-def test_this_processes_threads_are_left_alone():
-    threads = torch.get_num_threads()
-    env = ParallelSuiteEnv(2, FACTORY)
-    assert torch.get_num_threads() == threads
-    env.set_seed(0)
-    env.rollout(2)  # its first env stepped here, with one thread meanwhile
-    assert torch.get_num_threads() == threads
-    env.close()
-    assert torch.get_num_threads() == threads
-
-
-def test_first_here_by_default_for_two_envs_on_this_processes_device():
-    one, two, on_0 = (ParallelSuiteEnv(1, FACTORY), ParallelSuiteEnv(2, FACTORY),
-                      ParallelSuiteEnv(2, FACTORY, render_devices=[0]))
-    assert (one.first_here, two.first_here, on_0.first_here) == (False, True, process_render_device() == 0)
-    assert one._procs[0] is not None and two._procs[0] is None
-    for env in (one, two, on_0):
-        env.close()
+def test_first_here_by_default_for_two_envs_on_this_processes_device(env2):
+    one = ParallelSuiteEnv(1, FACTORY)
+    assert (one.first_here, env2.first_here) == (False, True)
+    assert one._procs[0] is not None and env2._procs[0] is None
+    one.close()
     with pytest.raises(TypeError, match="first_here must be True, False or None"):
         ParallelSuiteEnv(2, FACTORY, first_here="yes")
 
@@ -226,22 +244,6 @@ def _broken_env_in_a_worker():
     return FACTORY()
 
 
-def test_render_threads_reach_the_workers_from_their_start():
-    """Mesa reads LP_NUM_THREADS once, when a process first imports dm_control, which unpickling a
-    worker's function does: render_threads must be in the worker's environment from its start."""
-    before = dict(os.environ)
-    env = ParallelSuiteEnv(2, FACTORY, render_threads=0)
-    try:
-        assert env.first_here
-        with open(f"/proc/{env._procs[1].pid}/environ", "rb") as f:
-            start = dict(item.split(b"=", 1) for item in f.read().split(b"\0") if b"=" in item)
-        assert start[b"LP_NUM_THREADS"] == b"0"
-        env.reset()
-    finally:
-        env.close()
-    assert dict(os.environ) == before  # set only while the worker was started
-
-
 def test_bad_input_and_failing_workers_name_the_fix():
     with pytest.raises(ValueError, match="num_workers must be an int >= 1"):
         ParallelSuiteEnv(0, FACTORY)
@@ -259,8 +261,7 @@ def test_bad_input_and_failing_workers_name_the_fix():
     env = ParallelSuiteEnv(1, FACTORY)
     with pytest.raises(RuntimeError, match="(?s)worker 0 failed.*step before reset"):
         env.step(env.full_action_spec.zero().set("action", torch.zeros(1, 1)))
-    env = ParallelSuiteEnv(1, FACTORY)
-    env.close()
+    assert env.is_closed  # a failed worker closes the env: as closed by close()
     with pytest.raises(RuntimeError, match="closed"):
         env.reset()
     with pytest.raises(RuntimeError, match="closed already"):
@@ -270,13 +271,13 @@ def test_bad_input_and_failing_workers_name_the_fix():
 def test_workers_end_when_the_process_that_made_them_is_killed(tmp_path):
     script = (
         "import functools, os, sys, dcs_torchrl as dcs\n"
-        "env = dcs.ParallelSuiteEnv(2, functools.partial(dcs.make_env, 'cartpole', 'swingup'), first_here=False)\n"
+        "env = dcs.ParallelSuiteEnv(1, functools.partial(dcs.make_env, 'cartpole', 'swingup'))\n"
         "print(' '.join(str(p.pid) for p in env._procs), flush=True)\n"
         "sys.stdin.read()\n"
     )
     proc = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     pids = [int(p) for p in proc.stdout.readline().split()]
-    assert len(pids) == 2
+    assert len(pids) == 1  # one worker (each spawn costs seconds): what ends it ends every worker
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     deadline = time.time() + 30
@@ -293,11 +294,15 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def test_worker_i_is_started_for_render_devices_i_mod_len(monkeypatch):
+def test_worker_i_is_started_for_render_devices_i_mod_len_with_the_render_threads(monkeypatch):
     """On a node shaped like four GPUs, render_devices=[2, 3] starts workers 0, 1, 2 for EGL devices
     2, 3, 2. This machine has one EGL device: each worker's device is recorded and it is started on
     device 0, with this process pretending to render on 1, so that a worker which did not get its
-    variable fails (dm_control refuses a device the machine lacks)."""
+    variable fails (dm_control refuses a device the machine lacks).
+
+    Mesa reads LP_NUM_THREADS once, when a process first imports dm_control, which unpickling a
+    worker's function does: render_threads must be in each worker's environment from its start,
+    and this process's environment is as it was."""
     from contextlib import contextmanager
 
     from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
@@ -313,10 +318,18 @@ def test_worker_i_is_started_for_render_devices_i_mod_len(monkeypatch):
     monkeypatch.setattr(dcs.parallel, "render_device_indices", lambda devices: list(devices))
     monkeypatch.setattr(dcs.parallel, "spawn_environment", on_device_zero)
     monkeypatch.setenv(EGL_DEVICE_VARIABLE, "1")
-    env = ParallelSuiteEnv(3, FACTORY, render_devices=[2, 3], first_here=False)
-    env.set_seed(0)
-    assert env.reset()["pixels"].shape == (3, 32, 32, 3)
-    env.close()
+    before = dict(os.environ)
+    env = ParallelSuiteEnv(3, FACTORY, render_devices=[2, 3], first_here=False, render_threads=0)
+    try:
+        for proc in env._procs:
+            with open(f"/proc/{proc.pid}/environ", "rb") as f:
+                start = dict(item.split(b"=", 1) for item in f.read().split(b"\0") if b"=" in item)
+            assert start[b"LP_NUM_THREADS"] == b"0"
+        env.set_seed(0)
+        assert env.reset()["pixels"].shape == (3, 32, 32, 3)
+    finally:
+        env.close()
+    assert dict(os.environ) == before  # set only while the workers were started
     assert started == [2, 3, 2]
 
 
@@ -324,22 +337,32 @@ def test_the_package_exports_it():
     assert dcs.ParallelSuiteEnv is ParallelSuiteEnv
 
 
-def test_each_worker_renders_on_its_chosen_egl_device():
+def test_each_worker_renders_on_its_chosen_egl_device(env2):
     """Worker i renders on render_devices[i % len]: device 0 (the machine's first EGL device) works and
     renders the same frames; an index the machine lacks, or a CUDA device no EGL device is (Mesa has
-    none), is refused before any worker starts, naming the machine's EGL devices."""
-    before = os.environ.get("MUJOCO_EGL_DEVICE_ID")
+    none), is refused before any worker starts, naming the machine's EGL devices. Its first env is
+    here when this process renders on device 0 (first_here's default), and this process's torch
+    threads are left alone: by the start, while its first env steps here with one thread, and by the close."""
+    before, threads = os.environ.get("MUJOCO_EGL_DEVICE_ID"), torch.get_num_threads()
     env = ParallelSuiteEnv(2, FACTORY, render_devices=[0])
     assert os.environ.get("MUJOCO_EGL_DEVICE_ID") == before  # only the workers' environment
+    assert env.first_here == (process_render_device() == 0)
+    assert torch.get_num_threads() == threads
     env.set_seed(3)
     frames = env.reset()["pixels"]
+    env.rollout(2)
+    assert torch.get_num_threads() == threads
     env.close()
-    alone = ParallelSuiteEnv(2, FACTORY)
-    alone.set_seed(3)
-    assert torch.equal(frames, alone.reset()["pixels"])
-    alone.close()
+    assert torch.get_num_threads() == threads
+    env2.set_seed(3)
+    assert torch.equal(frames, env2.reset()["pixels"])
     with pytest.raises(ValueError, match=r"EGL device 10000 does not exist: this machine's EGL devices are 0 \("):
         ParallelSuiteEnv(2, FACTORY, render_devices=[0, 10_000])
     if not any(d.cuda is not None for d in egl_devices()):
         with pytest.raises(ValueError, match="no EGL device of this machine is CUDA device 0 .* NVIDIA's EGL driver"):
             ParallelSuiteEnv(1, FACTORY, render_devices=["cuda:0"])
+
+
+def test_a_collector_collects_from_it(env2):
+    """Last in this file: the collector closes the shared env when done."""
+    _collect(env2)

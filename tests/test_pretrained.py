@@ -85,7 +85,8 @@ def test_shipped_agent_acts_under_any_make_env_setting(name):
 def test_evaluate_with_workers_on_the_cpu_gives_each_episode_of_one_env_per_seed():
     """On the CPU, evaluate(workers=2) runs each env in its own process with a copy of the policy:
     env i seeded as ParallelSuiteEnv seeds its worker i, running episodes i, i + 2, ...; every
-    return is the one that env gives alone, to the bit. (The batched ParallelSuiteEnv evaluation,
+    return is the one that env gives alone, to the bit (two episodes here; an env's later episodes
+    in its process: tests/test_evaluation.py). (The batched ParallelSuiteEnv evaluation,
     the GPU's path, gives the same episodes up to the float rounding of a batch of two, which a
     long episode can amplify: 0.0004 on this test's first episode, 11.6 on another's fifth.)"""
     from dcs_torchrl.pretrained import agent_env_settings
@@ -93,7 +94,7 @@ def test_evaluate_with_workers_on_the_cpu_gives_each_episode_of_one_env_per_seed
 
     agent = load_pretrained(AGENT)
     settings = dict(benchmark="medium", dynamic=True)
-    split = agent.evaluate(3, workers=2, **settings)
+    split = agent.evaluate(2, workers=2, **settings)
 
     def alone(seed: int, episodes: int) -> tuple:
         env = pixel_env(agent_env_settings(agent._cfg, settings), **pixel_options(agent._cfg.pixels))
@@ -105,9 +106,9 @@ def test_evaluate_with_workers_on_the_cpu_gives_each_episode_of_one_env_per_seed
     second = pixel_env(agent_env_settings(agent._cfg, settings), **pixel_options(agent._cfg.pixels))
     second_seed = second.set_seed(agent.eval_seed)  # TorchRL's chain: worker 1's seed
     second.close()
-    first, other = alone(agent.eval_seed, 2), alone(second_seed, 1)
-    assert split.returns == (first[0], other[0], first[1])
-    assert len(set(split.returns)) == 3  # three episodes, not one repeated
+    first, other = alone(agent.eval_seed, 1), alone(second_seed, 1)
+    assert split.returns == (first[0], other[0])
+    assert len(set(split.returns)) == 2  # two episodes, not one repeated
 
 
 def test_an_evaluation_return_does_not_depend_on_the_callers_torch_threads():
@@ -137,11 +138,12 @@ def test_an_evaluation_return_does_not_depend_on_the_callers_torch_threads():
         torch.set_num_threads(2)
         seen.clear()
         env = agent.make_env(seed=0)
-        try:
-            evaluate(env, policy, 1, seed=agent.eval_seed, threads=None)
+        try:  # the first steps of an episode say which threads it acts with
+            with pytest.raises(RuntimeError, match="0 of 1 episodes finished after max_steps=5"):
+                evaluate(env, policy, 1, seed=agent.eval_seed, threads=None, max_steps=5)
         finally:
             env.close()
-        assert set(seen) == {2}
+        assert len(seen) == 5 and set(seen) == {2}
     finally:
         torch.set_num_threads(own)
 

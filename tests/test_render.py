@@ -123,9 +123,12 @@ def test_distraction_over_a_pixel_env_is_refused():
         TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=True), RenderPixels())
 
 
-@pytest.mark.parametrize("batched", [SerialEnv, ParallelEnv, ParallelSuiteEnv])
+# ParallelSuiteEnv of one env, here: nothing to spawn, and refused all the same (its class says its physics are in workers)
+@pytest.mark.parametrize("batched", [functools.partial(SerialEnv, 2), functools.partial(ParallelEnv, 2),
+                                     functools.partial(ParallelSuiteEnv, 1, first_here=True)],
+                         ids=["SerialEnv", "ParallelEnv", "ParallelSuiteEnv"])
 def test_distraction_over_a_batched_env_is_refused(batched):
-    base = batched(2, functools.partial(DMControlEnv, "cartpole", "swingup", from_pixels=False))
+    base = batched(functools.partial(DMControlEnv, "cartpole", "swingup", from_pixels=False))
     with pytest.raises(RuntimeError, match="build the suite inside each worker"):
         TransformedEnv(base, CameraDistraction(0.2))
     base.close(raise_if_closed=False)

@@ -28,13 +28,37 @@ def test_points_share_the_undistracted_env_and_validate():
         sweep_agent("no_such_agent", points, "unused")
 
 
-def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_path):
+def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_path, monkeypatch):
+    """Each point's episodes in a spawned process are those of an evaluation in this process, and
+    each process renders on its chosen device: --render-devices on a node shaped like four GPUs,
+    render_devices=[2, 3] with three processes gives a pool of two processes on EGL device 2 and
+    one on device 3 (process i on render_devices[i % len]). This machine has one EGL device, so
+    each pool's device is recorded and its processes are spawned on device 0, with this process
+    pretending to render on 1: a process that did not get its pool's variable fails its start.
+    (One sweep for both checks: each spawned process costs seconds.)"""
+    from dcs_torchrl import egl_devices, process_pool
+    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
+
     points = [Point("camera", 0.3, True), Point("background", 0.5, True, reference_blend=True), Point("color", 0.0, False)]
-    rows = sweep_agent(AGENT, points, tmp_path, episodes=2, workers=2, progress=False)
     agent = load_pretrained(AGENT)
-    for point, row in zip(points, rows):
-        alone = agent.evaluate(2, **point.overrides())  # this process, one env: the recipes' final evaluation
-        assert row["returns"] == list(alone.returns), point
+    alone = [list(agent.evaluate(2, **p.overrides()).returns) for p in points]  # this process, one env each
+
+    pools = []
+
+    class OnDeviceZero(process_pool.SpawnedPool):
+        def __init__(self, processes, *, environment, initargs, **kwargs):
+            pools.append((environment[EGL_DEVICE_VARIABLE], processes))
+            super().__init__(processes, environment={**environment, EGL_DEVICE_VARIABLE: 0},
+                             initargs=(*initargs[:-1], 0), **kwargs)
+
+    with monkeypatch.context() as device:
+        device.setattr(process_pool, "SpawnedPool", OnDeviceZero)
+        device.setattr(egl_devices, "render_device_indices", lambda devices: list(devices))
+        device.setenv("MUJOCO_EGL_DEVICE_ID", "1")
+        rows = sweep_agent(AGENT, points, tmp_path, episodes=2, workers=3, progress=False, render_devices=[2, 3])
+    assert sorted(pools) == [(2, 2), (3, 1)]
+    for point, row, returns in zip(points, rows, alone):  # the recipes' final evaluation, episode by episode
+        assert row["returns"] == returns, point
     assert rows[0]["returns"] != rows[2]["returns"]
 
     # run again: every point is read back, nothing evaluated, nothing rewritten
@@ -305,34 +329,6 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
 
     monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", counted)
     assert sweep(tmp_path / "resumed", points) == whole and len(resumed) == 1
-
-
-def test_workers_render_on_the_chosen_device_with_the_returns_of_this_process(tmp_path, monkeypatch):
-    """--render-devices on a node shaped like four GPUs: render_devices=[2, 3] with three processes
-    gives a pool of two processes on EGL device 2 and one on device 3 (process i on
-    render_devices[i % len]). This machine has one EGL device, so each pool's device is recorded and
-    its processes are spawned on device 0, with this process pretending to render on 1: a process
-    that did not get its pool's variable fails its start. The returns are those of an evaluation here."""
-    from dcs_torchrl import egl_devices, process_pool
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
-
-    pools = []
-
-    class OnDeviceZero(process_pool.SpawnedPool):
-        def __init__(self, processes, *, environment, initargs, **kwargs):
-            pools.append((environment[EGL_DEVICE_VARIABLE], processes))
-            super().__init__(processes, environment={**environment, EGL_DEVICE_VARIABLE: 0},
-                             initargs=(*initargs[:-1], 0), **kwargs)
-
-    points = [Point("camera", 0.3, True), Point("color", 0.5, False), Point("background", 0.2, False)]
-    agent = load_pretrained(AGENT)
-    alone = [list(agent.evaluate(1, **p.overrides()).returns) for p in points]
-    monkeypatch.setattr(process_pool, "SpawnedPool", OnDeviceZero)
-    monkeypatch.setattr(egl_devices, "render_device_indices", lambda devices: list(devices))
-    monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")
-    rows = sweep_agent(AGENT, points, tmp_path, episodes=1, workers=3, progress=False, render_devices=[2, 3])
-    assert sorted(pools) == [(2, 2), (3, 1)]
-    assert [row["returns"] for row in rows] == alone
 
 
 def test_a_render_device_the_machine_lacks_is_refused_before_anything_is_written(tmp_path, capsys):

@@ -58,7 +58,10 @@ def test_specs_serial(name):
     env.close()
 
 
-@pytest.mark.parametrize("batched", [functools.partial(ParallelEnv, mp_start_method="spawn"), ParallelSuiteEnv],
+# ParallelSuiteEnv's specs and a stream per worker, with every distraction exposed, by default:
+# tests/test_parallel.py (each worker's distraction states are those of one env with its own seed).
+@pytest.mark.parametrize("batched", [functools.partial(ParallelEnv, mp_start_method="spawn"),
+                                     pytest.param(ParallelSuiteEnv, marks=pytest.mark.slow)],
                          ids=["ParallelEnv", "ParallelSuiteEnv"])
 def test_specs_parallel(batched):
     """Every distraction in one env (one spawn of workers for the three): specs, and a stream per worker."""

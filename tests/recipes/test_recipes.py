@@ -59,18 +59,21 @@ def test_recipe_runs_end_to_end_and_is_skipped_once_finished(tmp_path, algo, aug
     assert (run_dir / "eval_episode.mp4").stat().st_size > 1000
     assert (run_dir / "learning_curve.png").stat().st_size > 1000
     before = (run_dir / "metrics.csv").read_bytes()
-    again = recipe(algo, run_dir, f"algo.aug={aug}", "env.benchmark=easy", "seed=3")
-    assert again.returncode == 0 and "already finished" in again.stdout
-    # the package's entry point, from outside the clone, finds the same run (same run_config.json)
+    # again through the package's entry point, from outside the clone: it finds the same run (same
+    # run_config.json) and skips it (the recipe's script and the entry point both run train())
     package = recipe(algo, run_dir, f"algo.aug={aug}", "env.benchmark=easy", "seed=3", package=True, cwd=tmp_path)
     assert package.returncode == 0 and "already finished" in package.stdout, package.stdout + package.stderr
     assert (run_dir / "metrics.csv").read_bytes() == before
 
 
 def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_path):
+    """Killed after a checkpoint, the same command resumes from it. The run starts with NCHW
+    convolutions and resumes under the channels_last default: network.channels_last (and compile)
+    change how the same math runs, not the run (the default went from false to true, and runs
+    started before it still resume from their checkpoints)."""
     run_dir = tmp_path / "run"
     args = ("algo.aug=rad", "total_frames=960")
-    process = recipe("sac", run_dir, *args, background=True)
+    process = recipe("sac", run_dir, *args, "network.channels_last=false", background=True)
     deadline = time.time() + 300
     while not list((run_dir / "checkpoints").glob("checkpoint_*.pt.sha256")) and time.time() < deadline:
         time.sleep(0.2)
@@ -82,7 +85,7 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     for frames, path in list_checkpoints(run_dir / "checkpoints"):  # each says what is due after it, not itself
         counters = torch.load(path, map_location="cpu", weights_only=False)["counters"]
         assert counters["next_checkpoint"] > frames and counters["next_eval"] > frames, (frames, counters)
-    resumed = recipe("sac", run_dir, *args)
+    resumed = recipe("sac", run_dir, *args)  # the default: channels_last=true
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert "resuming from the checkpoint at" in resumed.stdout
     rows = read_metrics(run_dir / "metrics.csv")
@@ -92,20 +95,8 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     assert logged == list(range(80, 961, 80))  # every logging step once, before and after the kill
     episodes = [r["value"] for r in rows if r["name"] == "train/episodes"]
     assert episodes == sorted(episodes) and len(set(episodes)) == len(episodes)
-    assert json.loads((run_dir / "results.json").read_text())["steps"] == 960
-
-
-def test_a_run_made_with_nchw_convolutions_resumes_under_the_channels_last_default(tmp_path):
-    """network.channels_last (and compile) change how the same math runs, not the run: the
-    default went from false to true, and runs started before it still resume from their checkpoints."""
-    run_dir = tmp_path / "run"
-    first = recipe("sac", run_dir, "algo.aug=rad", "total_frames=320", "network.channels_last=false")
-    assert first.returncode == 0, first.stdout + first.stderr
-    longer = recipe("sac", run_dir, "algo.aug=rad", "total_frames=480")  # the default: channels_last=true
-    assert longer.returncode == 0, longer.stdout + longer.stderr
-    assert "resuming from the checkpoint at 320 frames" in longer.stdout
     results = json.loads((run_dir / "results.json").read_text())
-    assert results["steps"] == 480 and results["config"]["network"]["channels_last"] is True
+    assert results["steps"] == 960 and results["config"]["network"]["channels_last"] is True
     assert "channels_last" not in json.loads((run_dir / "run_config.json").read_text())["network"]
 
 

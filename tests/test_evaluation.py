@@ -127,7 +127,7 @@ def _sub_env_seeds(seed: int, num_envs: int) -> list[int]:
 @pytest.mark.parametrize("batched, num_envs, episodes", [
     ("serial", 2, 5),    # sub-env 0 runs episodes 0, 2, 4; sub-env 1 runs 1, 3
     ("serial", 3, 4),    # sub-envs 1 and 2 idle while sub-env 0 runs episode 3
-    ("parallel", 2, 3),
+    pytest.param("parallel", 2, 3, marks=pytest.mark.slow),  # TorchRL's; by default the suite's, in a worker too:
     ("suite", 2, 3),     # the suite's ParallelSuiteEnv
     ("processes", 2, 3),  # evaluate_in_processes: each env in its own process with its own policy
 ])

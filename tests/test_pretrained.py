@@ -93,7 +93,7 @@ def test_evaluate_with_workers_on_the_cpu_gives_each_episode_of_one_env_per_seed
     from dcs_torchrl.training.envs import pixel_env, pixel_options
 
     agent = load_pretrained(AGENT)
-    settings = dict(benchmark="medium", dynamic=True)
+    settings = dict(benchmark="medium", dynamic=True, action_repeat=100)  # episodes of 10 steps: the same code
     split = agent.evaluate(2, workers=2, **settings)
 
     def alone(seed: int, episodes: int) -> tuple:
@@ -152,7 +152,7 @@ def test_evaluate_recipe_on_the_shipped_agent(tmp_path):
     out = tmp_path / "eval"
     done = subprocess.run(
         [sys.executable, str(ROOT / "recipes/evaluate/evaluate.py"), f"train_dir={AGENT}", "eval_env.camera_scale=0.3",
-         "eval.episodes=1", f"hydra.run.dir={out}"], capture_output=True, text=True, timeout=600)
+         "eval_env.action_repeat=100", "eval.episodes=1", f"hydra.run.dir={out}"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     results = json.loads((out / "results.json").read_text())
     assert results["eval"]["episodes"] == 1 and results["eval_env"]["camera_scale"] == 0.3

@@ -11,6 +11,19 @@ from dcs_torchrl.robustness import (RENDERERS, Point, _parser, main, robustness_
 AGENT = "sac_rad_cartpole_swingup"
 
 
+@pytest.fixture(scope="module")
+def short_agent(tmp_path_factory):
+    """The shipped agent acting every 100 physics steps (episodes of 10 steps, against 125): where and
+    how a sweep evaluates its points holds for episodes of any length, at a tenth of the time."""
+    import shutil
+
+    directory = shutil.copytree(shipped_agents()[AGENT], tmp_path_factory.mktemp("agent") / AGENT)
+    results = json.loads((directory / "results.json").read_text())
+    results["config"]["env"]["action_repeat"] = 100
+    (directory / "results.json").write_text(json.dumps(results))
+    return directory
+
+
 def test_points_share_the_undistracted_env_and_validate():
     points = sweep_points(["camera", "background"], [0.0, 0.5], "both", reference_blend=True)
     assert len(points) == 8 and len({p.key() for p in points}) == 5  # intensity 0 is one env for all
@@ -28,7 +41,7 @@ def test_points_share_the_undistracted_env_and_validate():
         sweep_agent("no_such_agent", points, "unused")
 
 
-def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_path, monkeypatch):
+def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_path, monkeypatch, short_agent):
     """Each point's episodes in a spawned process are those of an evaluation in this process, and
     each process renders on its chosen device: --render-devices on a node shaped like four GPUs,
     render_devices=[2, 3] with three processes gives a pool of two processes on EGL device 2 and
@@ -40,7 +53,7 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
     from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
 
     points = [Point("camera", 0.3, True), Point("background", 0.5, True, reference_blend=True), Point("color", 0.0, False)]
-    agent = load_pretrained(AGENT)
+    agent = load_pretrained(short_agent)
     alone = [list(agent.evaluate(2, **p.overrides()).returns) for p in points]  # this process, one env each
 
     pools = []
@@ -55,7 +68,7 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
         device.setattr(process_pool, "SpawnedPool", OnDeviceZero)
         device.setattr(egl_devices, "render_device_indices", lambda devices: list(devices))
         device.setenv("MUJOCO_EGL_DEVICE_ID", "1")
-        rows = sweep_agent(AGENT, points, tmp_path, episodes=2, workers=3, progress=False, render_devices=[2, 3])
+        rows = sweep_agent(short_agent, points, tmp_path, episodes=2, workers=3, progress=False, render_devices=[2, 3])
     assert sorted(pools) == [(2, 2), (3, 1)]
     for point, row, returns in zip(points, rows, alone):  # the recipes' final evaluation, episode by episode
         assert row["returns"] == returns, point
@@ -64,7 +77,7 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
     # run again: every point is read back, nothing evaluated, nothing rewritten
     stored = {p: p.stat().st_mtime_ns for p in (tmp_path / "points").iterdir()}
     assert len(stored) == 3
-    again = sweep_agent(AGENT, points, tmp_path, episodes=2, workers=2, progress=False)
+    again = sweep_agent(short_agent, points, tmp_path, episodes=2, workers=2, progress=False)
     assert again == rows and {p: p.stat().st_mtime_ns for p in (tmp_path / "points").iterdir()} == stored
 
     # another agent's points in the directory: refused, nothing touched
@@ -72,7 +85,7 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
     record["agent"]["seed"] = 99
     next(iter(stored)).write_text(json.dumps(record))
     with pytest.raises(FileExistsError, match="another agent"):
-        sweep_agent(AGENT, points, tmp_path, episodes=2, progress=False)
+        sweep_agent(short_agent, points, tmp_path, episodes=2, progress=False)
 
 
 def test_command_writes_table_csv_and_figure(tmp_path, capsys):
@@ -86,8 +99,8 @@ def test_command_writes_table_csv_and_figure(tmp_path, capsys):
     assert "Where the score falls to half" in capsys.readouterr().out
 
 
-def test_any_policy_and_env_factory():
-    agent = load_pretrained(shipped_agents()[AGENT])
+def test_any_policy_and_env_factory(short_agent):
+    agent = load_pretrained(short_agent)
     points = sweep_points(["color"], [0.0, 0.5])
     rows = robustness_sweep(agent.policy, lambda **o: agent.make_env(**o), points, episodes=1, seed=agent.eval_seed)
     assert rows[0]["returns"] == list(agent.evaluate(1).returns)
@@ -303,12 +316,12 @@ def test_the_bar_counts_the_envs_it_evaluates_and_the_last_line_says_so(tmp_path
     assert "4 points, 3 distinct envs (intensity 0 is one env on every axis), 3 evaluated now" in capsys.readouterr().out
 
 
-def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkeypatch):
+def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkeypatch, short_agent):
     import dcs_torchrl.pretrained
 
     evaluate_settings = dcs_torchrl.pretrained.evaluate_settings
     points = sweep_points(["color"], [0.0, 1.0])
-    whole = sweep(tmp_path / "whole", points)
+    whole = sweep(tmp_path / "whole", points, agent=short_agent)
 
     class Killed(Exception):
         pass
@@ -319,7 +332,7 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
 
     monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", killed_after_one)
     with pytest.raises(Killed):
-        sweep(tmp_path / "resumed", points)
+        sweep(tmp_path / "resumed", points, agent=short_agent)
     assert len(list((tmp_path / "resumed" / "points").iterdir())) == 1
     resumed = []
 
@@ -328,7 +341,7 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
         yield from evaluate_settings(agent, settings, episodes, **kwargs)
 
     monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", counted)
-    assert sweep(tmp_path / "resumed", points) == whole and len(resumed) == 1
+    assert sweep(tmp_path / "resumed", points, agent=short_agent) == whole and len(resumed) == 1
 
 
 def test_a_render_device_the_machine_lacks_is_refused_before_anything_is_written(tmp_path, capsys):

@@ -171,6 +171,25 @@ def test_a_trained_run_with_missing_evaluations_is_not_done(tmp_path):
     assert [r.id for r, _ in grid_status(cfg)["done"]] == [run.id]
 
 
+def test_a_job_gives_its_evaluations_the_budgets_processes_and_threads(tmp_path, monkeypatch):
+    """run_job trains (here: stands in) and then evaluates the run's checkpoint under every
+    evaluation of the run, in budget.eval_processes processes with budget.threads torch threads."""
+    import dcs_torchrl.experiments.evaluate
+    import dcs_torchrl.experiments.launch as launch
+
+    cfg = config("robustness", "smoke", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.tasks=[cartpole-swingup]",
+                 "budget.eval_processes=3", root=str(tmp_path))
+    (run,) = [r for r in grid_runs(cfg) if r.evaluations]
+    calls = []
+    monkeypatch.setattr(launch, "_train", lambda run, cfg: (0, tmp_path / "train.log"))
+    monkeypatch.setattr(dcs_torchrl.experiments.evaluate, "evaluate_checkpoint",
+                        lambda train_dir, evaluations, **kwargs: calls.append((train_dir, evaluations, kwargs)))
+    assert launch.run_job(cfg, run.id) == "done"
+    ((train_dir, evaluations, kwargs),) = calls
+    assert train_dir == run.dir(tmp_path) and len(evaluations) == len(run.evaluations)
+    assert kwargs["processes"] == 3 and kwargs["threads"] == cfg.budget.threads == 1
+
+
 def test_point_sweeps_are_valid_results_sweeps():
     for point in (Point("benchmark", "none", False), Point("camera", 0.3, True), Point("num_videos", 60, False)):
         doc = {"schema": 1, "experiment": "training", "method": "SAC", "algo": "sac", "aug": "none", "domain": "cartpole",

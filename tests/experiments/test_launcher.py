@@ -2,8 +2,10 @@
 
 CI runs a subset of the smoke grid of experiment ``robustness`` (one method, one seed, the two
 smoke tasks, the camera at intensities 0 and 1): training, evaluation-only runs from the
-checkpoints (two processes at once, ``budget.eval_processes=2``), a failed run listed and relaunched alone, a relaunch that skips everything, the
-report; and the SLURM launcher up to ``sbatch``. The whole smoke grid of every experiment, and a
+checkpoints (in the job's process: each spawned process costs seconds; ``budget.eval_processes``
+reaches them, tests/experiments/test_grid.py, and evaluations in spawned processes are
+tests/experiments/test_evaluate.py's and tests/test_robustness.py's), a failed run listed and
+relaunched alone, a relaunch that skips everything, the report; and the SLURM launcher up to ``sbatch``. The whole smoke grid of every experiment, and a
 launcher killed mid-way, are ``slow``.
 """
 from __future__ import annotations
@@ -25,7 +27,7 @@ from dcs_torchrl.report.__main__ import main as report
 
 REPO = Path(__file__).resolve().parents[2]
 RUN = [sys.executable, str(REPO / "recipes" / "experiments" / "run.py"), "-m"]
-SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.eval_processes=2",
+SUBSET = ["experiment=robustness", "budget.methods=[SAC+RAD]", "budget.seeds=[0]", "budget.eval_processes=1",
           "experiment.train.0.evaluate=[{axis:camera,values:[0.0,1.0]}]", "budget.recipe.total_frames=200",
           "budget.recipe.eval.episodes=1", "budget.recipe.pixels.image_size=32"]
 CARTPOLE = "SAC+RAD/cartpole-swingup/none/seed_0"

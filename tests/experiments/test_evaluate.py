@@ -9,13 +9,17 @@ from dcs_torchrl.report.load import backgrounds
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.videos import EMBEDDED_VERSION
 
+# The agent acting every 100 physics steps: episodes of 10 steps (against 125), where what these tests
+# check (which evaluations run, where, what they record) holds for episodes of any length.
+SHORT = {"action_repeat": 100}
+
 
 def test_an_agent_trained_before_video_versions_were_recorded_keeps_none(tmp_path):
     agent = shutil.copytree(shipped_agents()["sac_rad_cartpole_swingup"], tmp_path / "agent")
     trained = json.loads((agent / "results.json").read_text())
     trained["train_env"]["num_videos"] = 2  # trained on stand-in videos, recorded without their version
     (agent / "results.json").write_text(json.dumps(trained))
-    evaluation = Evaluation("", "robustness", {"num_videos": 2}, {"axis": "num_videos", "value": 2, "dynamic": False})
+    evaluation = Evaluation("", "robustness", {"num_videos": 2, **SHORT}, {"axis": "num_videos", "value": 2, "dynamic": False})
     (result,) = evaluate_checkpoint(agent, [(tmp_path / "evaluation", evaluation)], settings={"eval.episodes": 1})
     assert "embedded_videos" not in result["train_env"] and result["train_env"] == trained["train_env"]
     assert result["eval_env"]["embedded_videos"] == EMBEDDED_VERSION  # evaluated now, on today's stand-ins
@@ -38,7 +42,7 @@ def test_a_finished_evaluation_is_reused_only_while_its_checkpoint_and_videos_ho
     """A finished evaluation is skipped; one of another checkpoint of the run (retrained under the
     same directory) or of other stand-in videos is evaluated again, its old record kept beside it."""
     agent = shutil.copytree(shipped_agents()["sac_rad_cartpole_swingup"], tmp_path / "agent")
-    evaluation = Evaluation("", "robustness", {"num_videos": 2}, {"axis": "num_videos", "value": 2, "dynamic": False})
+    evaluation = Evaluation("", "robustness", {"num_videos": 2, **SHORT}, {"axis": "num_videos", "value": 2, "dynamic": False})
     out = tmp_path / "evaluation"
     run = lambda: evaluate_checkpoint(agent, [(out, evaluation)], settings={"eval.episodes": 1})[0]  # noqa: E731
     first = run()
@@ -74,7 +78,8 @@ def test_an_evaluation_renders_on_the_chosen_device_and_records_it(tmp_path, mon
     """``execution.render_device``: an EGL index renders there (here 0, in a process spawned on it,
     this process pretending to render on 1) with the returns of this process; recorded in the config."""
     agent = shipped_agents()["sac_rad_cartpole_swingup"]
-    evaluation = Evaluation("", "robustness", {"camera_scale": 0.2}, {"axis": "camera_scale", "value": 0.2, "dynamic": False})
+    evaluation = Evaluation("", "robustness", {"camera_scale": 0.2, **SHORT},
+                            {"axis": "camera_scale", "value": 0.2, "dynamic": False})
     (here,) = evaluate_checkpoint(agent, [(tmp_path / "here", evaluation)], settings={"eval.episodes": 1})
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "1")
     (there,) = evaluate_checkpoint(agent, [(tmp_path / "there", evaluation)],

@@ -88,9 +88,9 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
         sweep_agent(short_agent, points, tmp_path, episodes=2, progress=False)
 
 
-def test_command_writes_table_csv_and_figure(tmp_path, capsys):
+def test_command_writes_table_csv_and_figure(tmp_path, capsys, short_agent):
     out = tmp_path / "out"
-    paths = main([AGENT, "--axes", "color", "--intensities", "0", "1", "--episodes", "1", "--workers", "1",
+    paths = main([str(short_agent), "--axes", "color", "--intensities", "0", "1", "--episodes", "1", "--workers", "1",
                   "--out", str(out), "--no-progress"])
     with open(paths["csv"]) as f:
         rows = list(csv.DictReader(f))

@@ -13,6 +13,7 @@ episode ends only at its time limit): :func:`task_arrays` checks that on the tas
 """
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -28,11 +29,13 @@ _ZZ, _XZ, _XX = 8, 2, 0  # columns of a 3x3 rotation matrix stored row-major (dm
 
 
 class Ids:
-    """Indices of a model's named elements, resolved once (what dm_control's ``physics.named`` looks up)."""
+    """Indices of a model's named elements, each resolved once and kept (what dm_control's ``physics.named``
+    looks up at every call)."""
 
     def __init__(self, model):
         self.model = model
 
+    @functools.cache  # noqa: B019 (one Ids per batch, alive as long as it)
     def _id(self, kind: mujoco.mjtObj, name: str) -> int:
         index = mujoco.mj_name2id(self.model, kind, name)
         if index < 0:
@@ -51,6 +54,7 @@ class Ids:
     def qpos(self, joint: str) -> int:
         return int(self.model.jnt_qposadr[self._id(mujoco.mjtObj.mjOBJ_JOINT, joint)])
 
+    @functools.cache  # noqa: B019
     def sensor(self, *names: str) -> np.ndarray:
         """The ``sensordata`` indices of ``names``, concatenated (dm_control's ``named.data.sensordata[names]``)."""
         index = []

@@ -25,7 +25,7 @@ from machine import cpu_model  # noqa: E402  (benchmarks/ is the script's direct
 def backend_returns(name: str, backend: str, episodes: int, device: str) -> list[float]:
     from torchrl.envs import SerialEnv
 
-    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.evaluation.protocol import evaluate
     from dcs_torchrl.pretrained import agent_env_settings, load_pretrained
     from dcs_torchrl.training.envs import pixel_env, pixel_options
 

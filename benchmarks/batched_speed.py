@@ -17,8 +17,8 @@ TorchRL's step and the output copies. The GL rows use Mesa's default threads.
 
 ``--physics-only``: no render, no distractions: N dm_control envs of each task stepped with random
 actions (episodes reset as they end), env-agent steps/s of today's per-env path (dm_control's
-``Environment.step`` action-repeat times, env after env, as :class:`~dcs_torchrl.batched.BatchedSuiteEnv`
-steps a task that is not over arrays) beside :class:`~dcs_torchrl.batch_physics.BatchPhysics` (MuJoCo's
+``Environment.step`` action-repeat times, env after env, as :class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv`
+steps a task that is not over arrays) beside :class:`~dcs_torchrl.vector.batch_physics.BatchPhysics` (MuJoCo's
 C, the task over arrays) on one thread and on every core, with the state observations computed.
 """
 from __future__ import annotations
@@ -37,10 +37,10 @@ import torch  # noqa: E402
 from machine import cpu_model  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
-from dcs_torchrl.batch_physics import BatchPhysics, physics_threads  # noqa: E402
-from dcs_torchrl.batched import BatchedSuiteEnv  # noqa: E402
+from dcs_torchrl.vector.batch_physics import BatchPhysics, physics_threads  # noqa: E402
+from dcs_torchrl.vector.batched import BatchedSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import action_repeat  # noqa: E402
-from dcs_torchrl.task_arrays import TASKS, task_arrays  # noqa: E402
+from dcs_torchrl.vector.task_arrays import TASKS, task_arrays  # noqa: E402
 
 PRESETS = {"none": dict(benchmark="none"), "medium": dict(benchmark="medium", dynamic=True)}
 

@@ -31,7 +31,7 @@ import torch  # noqa: E402
 from env_speed import interleaved_rounds, time_steps  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
-from dcs_torchrl import render  # noqa: E402
+from dcs_torchrl.render import gl as render  # noqa: E402
 from dcs_torchrl._scene import locate  # noqa: E402
 from dcs_torchrl.distractions.base import DistractionTransform  # noqa: E402
 

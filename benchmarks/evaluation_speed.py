@@ -6,7 +6,7 @@ Paths (the shipped SAC+RAD cartpole swingup agent, its final evaluation's seeds,
 
 - ``one env``: ``Pretrained.evaluate(episodes)``, one env in this process (the baseline, 1x);
 - ``n processes``: ``Pretrained.evaluate(episodes, workers=n)`` on the CPU, as it comes: each env
-  in its own process with a copy of the policy (``dcs_torchrl.evaluation.evaluate_in_processes``);
+  in its own process with a copy of the policy (``dcs_torchrl.evaluation.protocol.evaluate_in_processes``);
 - ``ParallelSuiteEnv, batched policy``: the same n envs in one ``ParallelSuiteEnv``, the policy
   acting on their batch in this process (what ``workers=n`` does with a policy on a GPU, and did
   on the CPU before).
@@ -27,7 +27,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from machine import cpu_model  # noqa: E402
 
-from dcs_torchrl.evaluation import evaluate  # noqa: E402
+from dcs_torchrl.evaluation.protocol import evaluate  # noqa: E402
 from dcs_torchrl.pretrained import agent_env_settings, load_pretrained  # noqa: E402
 from dcs_torchrl.training.envs import batched_pixel_env, close_env, pixel_options  # noqa: E402
 

@@ -52,7 +52,7 @@ left() {  # left <most>: seconds to give the next step, at most <most>, so that 
 export SCORED="sac_rad_cartpole_swingup sac_rad_ball_in_cup_catch"
 MACHINE='nvidia-smi; lscpu | grep "Model name"
   python3 -c "import torch; print(torch.__version__, torch.version.cuda, torch.backends.cudnn.version())"
-  python3 -c "from dcs_torchrl.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]"'
+  python3 -c "from dcs_torchrl.render.egl_devices import egl_devices; [print(d.describe(), d.extensions) for d in egl_devices()]"'
 SECONDS=0
 DEADLINE=${DEADLINE:-540}
 suite_args=(-q -rfE -p no:cacheprovider)

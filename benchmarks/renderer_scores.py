@@ -34,7 +34,7 @@ def gl_renderer() -> str:
 
 def clean_score(name: str, profile: str, episodes: int, device: str) -> tuple[float, float, str]:
     """(mean, standard error, SHA-256 of the first frame's bytes, 12 hex digits)."""
-    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.evaluation.protocol import evaluate
     from dcs_torchrl.pretrained import load_pretrained
 
     agent = load_pretrained(name, device)

@@ -11,9 +11,9 @@ import os
 # before dm_control is imported; an explicit MUJOCO_GL (osmesa, glfw) is respected.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from dcs_torchrl import _judged_warnings  # noqa: E402
+from dcs_torchrl._compat import judged_warnings  # noqa: E402
 
-_judged_warnings.install()  # only the dependency warnings judged harmless (see the module)
+judged_warnings.install()  # only the dependency warnings judged harmless (see the module)
 
 from dcs_torchrl.distractions import (  # noqa: E402
     BackgroundDistraction,
@@ -22,9 +22,9 @@ from dcs_torchrl.distractions import (  # noqa: E402
     DistractionTransform,
 )
 from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings  # noqa: E402
-from dcs_torchrl.parallel import ParallelSuiteEnv  # noqa: E402
+from dcs_torchrl.vector.parallel import ParallelSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
-from dcs_torchrl.render import RenderPixels  # noqa: E402
+from dcs_torchrl.render.gl import RenderPixels  # noqa: E402
 
 __all__ = [
     "BENCHMARKS",

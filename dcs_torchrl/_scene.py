@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from torchrl.envs import Compose, DMControlWrapper, EnvBase, ParallelEnv, SerialEnv, Transform, TransformedEnv
 
-from dcs_torchrl._private_api import container_of, dm_physics
+from dcs_torchrl._compat.private_api import container_of, dm_physics
 
 #: The class attribute, set to True, by which an env that is not a TorchRL ``SerialEnv`` or ``ParallelEnv``
 #: says that its dm_control physics live out of a transform's reach (in its workers):

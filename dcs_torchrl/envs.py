@@ -16,7 +16,7 @@ from torchrl.envs import Compose, DMControlEnv, EnvBase, ExcludeTransform, Trans
 from dcs_torchrl import presets
 from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
 from dcs_torchrl.distractions.background import as_video_source
-from dcs_torchrl.render import RenderPixels, check_profile
+from dcs_torchrl.render.gl import RenderPixels, check_profile
 
 
 def _option(default, meaning: str, *, scene: bool = True):
@@ -85,10 +85,10 @@ class EnvOptions:
         "gl", '``"gl"`` (default): one env, rendered by MuJoCo\'s OpenGL renderer, the reference the paper\'s '
               'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process, each with its own '
               "physics, task and distractions as on GL, rendered in one batch by MuJoCo Warp "
-              '(:class:`dcs_torchrl.batched.BatchedSuiteEnv`; ``pip install "dcs-torchrl[warp]"``; '
+              '(:class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`; ``pip install "dcs-torchrl[warp]"``; '
               "docs/batched.md).", scene=False)
     masks: bool = _option(False, 'add ``"masks"``, a uint8 label per pixel (0 background, 1 floor, 2 agent: '
-                                 ":data:`dcs_torchrl.warp_render.MASK_LABELS`) from the render's segmentation; "
+                                 ":data:`dcs_torchrl.render.warp.MASK_LABELS`) from the render's segmentation; "
                                  '``backend="warp"`` only.', scene=False)
 
 
@@ -225,7 +225,7 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
     if o.backend == "warp":
         env = _warp_env([(s, o.num_envs)], o)
     elif o.num_envs is not None:  # N GL envs, one process each: env i is make_env(...) seeded by the chain
-        from dcs_torchrl.parallel import ParallelSuiteEnv
+        from dcs_torchrl.vector.parallel import ParallelSuiteEnv
 
         one = {k: v for k, v in options.items() if k not in ("num_envs", "seed", "device")}
         env = ParallelSuiteEnv(o.num_envs, functools.partial(make_env, domain, task, **one), device=o.device)
@@ -291,9 +291,9 @@ def _check_options(o: EnvOptions) -> None:
 
 
 def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
-    """The :class:`~dcs_torchrl.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
-    from dcs_torchrl.batched import BatchedSuiteEnv, compact_skies
-    from dcs_torchrl.warp_render import import_warp
+    """The :class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
+    from dcs_torchrl.vector.batched import BatchedSuiteEnv, compact_skies
+    from dcs_torchrl.render.warp import import_warp
 
     import_warp()  # the extra's error first
     expose = bool(o.expose_distractions)

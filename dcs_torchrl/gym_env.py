@@ -47,7 +47,7 @@ except ModuleNotFoundError as error:  # only Gymnasium itself missing gets the i
     ) from error
 
 from dcs_torchrl import presets
-from dcs_torchrl._private_api import control_timestep
+from dcs_torchrl._compat.private_api import control_timestep
 from dcs_torchrl.envs import EnvOptions, make_env
 
 __all__ = ["DICT_LAYOUTS", "DistractingControlEnv", "DistractingControlVectorEnv", "NAMESPACE", "OBS_TYPES", "env_id",
@@ -337,7 +337,7 @@ class DistractingControlVectorEnv(gymnasium.vector.VectorEnv):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Starts every sub-env's episode (or those of ``options["reset_mask"]``); ``seed`` (an int)
-        reseeds them first as :meth:`dcs_torchrl.batched.BatchedSuiteEnv.set_seed` does."""
+        reseeds them first as :meth:`dcs_torchrl.vector.batched.BatchedSuiteEnv.set_seed` does."""
         self._check_open("reset")
         options = dict(options or {})
         mask = options.pop("reset_mask", None)

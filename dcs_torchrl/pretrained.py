@@ -24,13 +24,11 @@ import argparse
 import json
 import os
 import shutil
-import time
-from collections import Counter
-from collections.abc import Hashable, Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Pretrained", "agent_directory", "agent_env_settings", "checkpoint_sha256", "evaluate_settings",
+__all__ = ["Pretrained", "agent_directory", "agent_env_settings", "agent_results", "checkpoint_sha256",
            "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -60,7 +58,8 @@ def agent_directory(agent: str | os.PathLike) -> Path:
                             f"exported agent's directory, or one of {sorted(shipped)}.")
 
 
-def _results(run_dir: Path) -> dict:
+def agent_results(run_dir: Path) -> dict:
+    """The ``results.json`` of a finished run or an exported agent."""
     try:
         return json.loads((run_dir / "results.json").read_text())
     except FileNotFoundError:
@@ -130,7 +129,7 @@ def export_policy(run_dir: str | os.PathLike, out_dir: str | os.PathLike) -> Pat
     run_dir, out_dir = Path(run_dir), Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"{out_dir} exists: export into a new directory (nothing is overwritten).")
-    results = _results(run_dir)
+    results = agent_results(run_dir)
     loaded = load_latest(run_dir / "checkpoints")
     if loaded is None or loaded[0] != results["steps"]:
         raise RuntimeError(f"{run_dir}: the newest checkpoint ({loaded and loaded[0]} frames) is not the final one "
@@ -169,14 +168,14 @@ class Pretrained:
                  **settings):
         """The recipes' final evaluation of this agent in an env of make_env ``settings``.
 
-        ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.evaluate`) with the
+        ``episodes`` deterministic episodes (:func:`dcs_torchrl.evaluation.protocol.evaluate`) with the
         seeds of the training run's final evaluation (without settings it repeats that evaluation).
         With ``workers`` > 1 the episodes are spread over that many envs, seeded as the workers of a
         :class:`~dcs_torchrl.ParallelSuiteEnv` are (other seeds per env: other episodes than one
         env's), env i running episodes i, i + workers, ...:
 
         - policy on the CPU: each env in its own process with a copy of the policy
-          (:func:`~dcs_torchrl.evaluation.evaluate_in_processes`); a batched policy there keeps
+          (:func:`~dcs_torchrl.evaluation.protocol.evaluate_in_processes`); a batched policy there keeps
           the workers waiting (measured: docs/performance.md, "Evaluation on the CPU");
         - policy on a GPU: one :class:`~dcs_torchrl.ParallelSuiteEnv`, the policy acting on the
           batch in this process.
@@ -185,11 +184,11 @@ class Pretrained:
         rounding on a GPU). ``backend="warp"``: ``num_envs`` envs (default: ``episodes``, all at
         once) in one batched env of this process, rendered by MuJoCo Warp on the policy's device,
         seeded as that many workers are (``workers`` is then unused). Returns an
-        :class:`~dcs_torchrl.evaluation.EvalResult`.
+        :class:`~dcs_torchrl.evaluation.protocol.EvalResult`.
         """
         import torch
 
-        from dcs_torchrl.evaluation import evaluate, evaluate_in_processes
+        from dcs_torchrl.evaluation.protocol import evaluate, evaluate_in_processes
         from dcs_torchrl.training.envs import batched_pixel_env, close_env, pixel_env, pixel_env_factory, pixel_options
 
         cfg = self._cfg
@@ -217,9 +216,9 @@ class Pretrained:
         as its own batch, and the policy given each setting's observations apart, as a batch of
         their own. So each setting's returns are those of ``evaluate(episodes, backend="warp",
         **setting)`` (``tests/test_batched.py``). The settings must all show background videos or
-        none (:func:`dcs_torchrl.make_grouped_env`; :func:`evaluate_settings` groups them so).
-        Returns an :class:`~dcs_torchrl.evaluation.EvalResult` per setting, in order."""
-        from dcs_torchrl.evaluation import EvalResult, evaluate
+        none (:func:`dcs_torchrl.make_grouped_env`; :func:`~dcs_torchrl.evaluation.scheduling.evaluate_settings` groups them so).
+        Returns an :class:`~dcs_torchrl.evaluation.protocol.EvalResult` per setting, in order."""
+        from dcs_torchrl.evaluation.protocol import EvalResult, evaluate
         from dcs_torchrl.training.envs import close_env, grouped_pixel_env, pixel_options
 
         cfg = self._cfg
@@ -270,7 +269,7 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
     from dcs_torchrl.training.loop import acting_on
 
     path = agent_directory(agent)
-    results = _results(path)
+    results = agent_results(path)
     loaded = load_latest(path / "checkpoints")
     if loaded is None:
         raise FileNotFoundError(f"{path}/checkpoints holds no checkpoint that verifies.")
@@ -280,152 +279,6 @@ def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: boo
     built, cfg = _build_agent(results, device)
     load_policy_state(built, loaded[1])
     return Pretrained(acting_on(built.policy, device), results, cfg)
-
-
-#: The most envs :func:`evaluate_settings` puts in one batched env with ``backend="warp"``.
-WARP_BATCH_ENVS = 128
-
-
-def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
-                      processes: int = 1, workers: int = 1, device: str = "cpu", final: bool = False,
-                      render_devices: Sequence[int | str] | None = None,
-                      backend: str = "gl") -> Iterator[tuple[Hashable, dict, float]]:
-    """:meth:`Pretrained.evaluate` of ``agent`` under each of several make_env ``settings``, in
-    ``processes`` processes at once; yields ``(key, EvalResult.to_dict(), seconds)`` as each one
-    finishes.
-
-    Each process evaluates whole settings, each in one env, so every episode's return is the one
-    an evaluation in this process gives (and the 2021 code's background blend accumulates over all
-    of a setting's episodes, as there). Processes get an equal share of the cores for torch and for
-    Mesa's llvmpipe render threads (``LP_NUM_THREADS``, in each process's environment from its
-    start: Mesa reads it once, at the process's first import of dm_control; a user's setting is
-    kept) and end when this process is killed.
-    ``processes=1`` evaluates here, one setting after another, unless it must render elsewhere.
-
-    Args:
-        agent: a finished run, an exported agent or a shipped agent's name.
-        settings: per key, make_env settings over the training env's (``{}``: the training env).
-        episodes: episodes per setting.
-        processes: settings (with ``backend="warp"``: batches of settings) evaluated at once.
-        workers: :meth:`Pretrained.evaluate`'s env workers per setting (1: one env).
-        device, final: as :func:`load_pretrained`.
-        render_devices: the GPU each process renders on, process ``i`` on
-            ``render_devices[i % len]``: EGL device indices or CUDA devices (``"cuda:1"``), as
-            :class:`~dcs_torchrl.ParallelSuiteEnv`'s, checked before anything starts; ``None``
-            (default): this process's device. A process's env workers render on its device.
-        backend: ``"gl"``, or ``"warp"``: several settings' episodes all at once, in one batched
-            env (:meth:`Pretrained.evaluate_each`: each setting's returns are those of
-            :meth:`Pretrained.evaluate` with ``backend="warp"``), in batches of at most
-            :data:`WARP_BATCH_ENVS` envs (or one setting's episodes), settings that show videos
-            apart from those that show none, about as many envs to each process. ``seconds``
-            is then its batch's wall time shared among the batch's settings.
-    """
-    from dcs_torchrl.egl_devices import process_render_device, render_device_indices
-
-    if processes < 1:
-        raise ValueError(f"processes must be >= 1, got {processes}.")
-    devices = render_device_indices(render_devices)
-    if devices is not None and set(devices) == {process_render_device()}:
-        devices = None  # all on this process's device: nothing to spawn for
-    if backend == "warp":
-        batches = _warp_batches(_results(agent_directory(agent))["config"], settings, episodes, processes)
-    else:
-        batches = [[key] for key in settings]
-    if devices is None and (processes == 1 or len(batches) < 2):
-        loaded = load_pretrained(agent, device, final=final) if settings else None
-        for batch in batches:
-            results = _timed_evaluation(loaded, [settings[key] for key in batch], episodes, workers, backend)
-            yield from ((key, *result) for key, result in zip(batch, results))
-        return
-    yield from _evaluate_in_processes(agent, settings, batches, episodes, min(processes, len(batches)), workers,
-                                      device, final, devices, backend)
-
-
-def _warp_batches(config: Mapping, settings: Mapping[Hashable, dict], episodes: int,
-                  processes: int) -> list[list[Hashable]]:
-    """The keys of ``settings`` in batches for one batched env each (:func:`evaluate_settings`),
-    largest first: those that one render cannot mix apart (videos or none, texture size, camera),
-    each batch at most the envs of all settings shared among the processes, of
-    :data:`WARP_BATCH_ENVS` or of one setting."""
-    from dcs_torchrl.results import shows_videos
-
-    kinds: dict[tuple, list[Hashable]] = {}
-    for key, overrides in settings.items():
-        env = agent_env_settings(config, overrides)
-        videos = shows_videos(env.as_dict())
-        kind = (videos, env.texture_size if videos else None, env.camera_id)
-        kinds.setdefault(kind, []).append(key)
-    share = -(-len(settings) * episodes // max(1, processes))
-    per = max(1, min(WARP_BATCH_ENVS, share) // episodes)
-    batches = [keys[i:i + per] for keys in kinds.values() for i in range(0, len(keys), per)]
-    return sorted(batches, key=len, reverse=True)
-
-
-def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], batches: list[list[Hashable]], episodes: int,
-                           processes: int, workers: int, device: str, final: bool, devices: list[int] | None,
-                           backend: str = "gl"):
-    """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
-    spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a batch of settings whenever one of
-    its processes is free."""
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from contextlib import ExitStack
-
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, render_threads_share
-    from dcs_torchrl.process_pool import SpawnedPool
-
-    threads = max(1, (os.cpu_count() or 1) // processes)
-    share = Counter(None if devices is None else devices[i % len(devices)] for i in range(processes))
-    todo = iter(batches)
-    running = {}
-    with ExitStack() as stack:
-        def feed(pool):
-            batch = next(todo, None)
-            if batch is not None:
-                overrides = [settings[key] for key in batch]
-                running[pool.submit(_evaluate_in_worker, overrides, episodes, workers, backend)] = batch, pool
-
-        for render, count in share.items():
-            pool = stack.enter_context(SpawnedPool(
-                count, environment={EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads_share(threads)},
-                threads=threads, initializer=_start_worker, initargs=(os.fspath(agent), device, final, render)))
-            for _ in range(count):
-                feed(pool)
-        while running:
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in finished:
-                batch, pool = running.pop(future)
-                results = future.result()
-                feed(pool)
-                yield from ((key, *result) for key, result in zip(batch, results))
-
-
-_WORKER_AGENT = None
-
-
-def _start_worker(agent: str, device: str, final: bool, render: int | None) -> None:
-    from dcs_torchrl.egl_devices import process_render_device
-
-    if render is not None and process_render_device() != render:  # spawned outside its pool's environment
-        raise RuntimeError(f"an evaluation process meant to render on EGL device {render} was started on "
-                           f"{process_render_device()}: it must be spawned with MUJOCO_EGL_DEVICE_ID={render}.")
-    global _WORKER_AGENT
-    _WORKER_AGENT = load_pretrained(agent, device, final=final)
-
-
-def _timed_evaluation(agent: Pretrained, batch: list[dict], episodes: int, workers: int,
-                      backend: str = "gl") -> list[tuple[dict, float]]:
-    """Each setting of ``batch`` evaluated (``backend="warp"``: all at once), with its share of the seconds."""
-    start = time.time()
-    if backend == "warp":
-        results = agent.evaluate_each(batch, episodes)
-    else:
-        results = [agent.evaluate(episodes, workers=workers, backend=backend, **overrides) for overrides in batch]
-    seconds = (time.time() - start) / len(batch)
-    return [(result.to_dict(), seconds) for result in results]
-
-
-def _evaluate_in_worker(batch: list[dict], episodes: int, workers: int, backend: str = "gl") -> list[tuple[dict, float]]:
-    return _timed_evaluation(_WORKER_AGENT, batch, episodes, workers, backend)
 
 
 def main(argv=None) -> None:

@@ -135,7 +135,7 @@ def robustness_sweep(policy, make_env: Callable[..., object], points: Sequence[P
 
     Keyword Args:
         episodes: episodes per point, in one env seeded with ``seed``
-            (:func:`dcs_torchrl.evaluation.evaluate`).
+            (:func:`dcs_torchrl.evaluation.protocol.evaluate`).
 
     Returns:
         one row per point (:func:`write_outputs` reads them).
@@ -149,7 +149,7 @@ def robustness_sweep(policy, make_env: Callable[..., object], points: Sequence[P
         >>> [(r["axis"], r["value"], r["episodes"]) for r in rows]
         [('color', 0.0, 1), ('color', 1.0, 1)]
     """
-    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.evaluation.protocol import evaluate
 
     def run(overrides: dict) -> dict:
         env = make_env(**overrides)
@@ -297,7 +297,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     ``out`` holding another agent's points, or this agent's from another checkpoint, is refused
     before anything is evaluated. ``workers`` processes each evaluate whole points, worker ``i``
     rendering on ``render_devices[i % len]`` (EGL indices or ``"cuda:N"``; ``None``: this
-    process's device; :func:`dcs_torchrl.pretrained.evaluate_settings`). The background
+    process's device; :func:`dcs_torchrl.evaluation.scheduling.evaluate_settings`). The background
     axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
     folder that holds fewer). ``backend="warp"``: several points' episodes all at once, in one batched
     env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate_each`: each point's
@@ -306,11 +306,12 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
     """
-    from dcs_torchrl.egl_devices import render_device_indices
-    from dcs_torchrl.pretrained import _results, agent_directory, evaluate_settings
+    from dcs_torchrl.render.egl_devices import render_device_indices
+    from dcs_torchrl.evaluation.scheduling import evaluate_settings
+    from dcs_torchrl.pretrained import agent_directory, agent_results
 
     directory = agent_directory(agent)
-    results = _results(directory)
+    results = agent_results(directory)
     if episodes < 1 or workers < 1:
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
     devices = render_device_indices(render_devices)  # a device this machine lacks: refused before anything is written

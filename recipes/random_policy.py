@@ -13,7 +13,7 @@ import torch
 
 from torchrl.envs import DMControlEnv
 
-from dcs_torchrl.evaluation import evaluate
+from dcs_torchrl.evaluation.protocol import evaluate
 from dcs_torchrl.presets import action_repeat
 
 

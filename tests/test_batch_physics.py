@@ -4,8 +4,8 @@ import pytest
 from dm_control import suite
 from dm_control.rl.control import PhysicsError
 
-from dcs_torchrl.batch_physics import RETUNE, TRIALS, BatchPhysics
-from dcs_torchrl.task_arrays import task_arrays
+from dcs_torchrl.vector.batch_physics import RETUNE, TRIALS, BatchPhysics
+from dcs_torchrl.vector.task_arrays import task_arrays
 
 
 def _run(threads, steps: int = 2 * TRIALS + RETUNE + 3, n: int = 5):

@@ -12,8 +12,8 @@ from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import BackgroundDistraction, make_env
-from dcs_torchrl.batched import BatchedSuiteEnv, _chunks
-from dcs_torchrl.warp_render import MASK_LABELS
+from dcs_torchrl.vector.batched import BatchedSuiteEnv, _chunks
+from dcs_torchrl.render.warp import MASK_LABELS
 
 pytest.importorskip("mujoco_warp")
 
@@ -482,8 +482,8 @@ def test_bad_settings_are_refused_with_the_fix():
         make_env("cartpole", "swingup", backend="warp", num_envs=0)
     with pytest.raises(ValueError, match="camera_id=-1"):
         make_env("cartpole", "swingup", backend="warp", num_envs=1, camera_id=-1)
-    from dcs_torchrl.batched import WARP_PROFILES
-    from dcs_torchrl.render import PROFILES
+    from dcs_torchrl.vector.batched import WARP_PROFILES
+    from dcs_torchrl.render.gl import PROFILES
 
     assert set(WARP_PROFILES) == set(PROFILES)  # one name of each profile, checked once (render.check_profile)
     with pytest.raises(ValueError, match="unknown render_profile"):
@@ -500,7 +500,7 @@ AGENT = "sac_rad_cartpole_swingup"
 
 
 def test_a_shipped_agent_evaluated_on_warp_runs_its_episodes_at_once_and_still_swings_up():
-    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.evaluation.protocol import evaluate
     from dcs_torchrl.pretrained import agent_env_settings, load_pretrained
     from dcs_torchrl.training.envs import pixel_env, pixel_options
 
@@ -526,7 +526,7 @@ def test_the_robustness_command_keeps_warp_points_apart_from_gl_points(tmp_path,
             calls.append(backend)
             yield key, {"mean": 1.0, "stderr": 0.0, "episodes": episodes, "returns": [1.0] * episodes}, 0.0
 
-    monkeypatch.setattr("dcs_torchrl.pretrained.evaluate_settings", evaluate_settings)
+    monkeypatch.setattr("dcs_torchrl.evaluation.scheduling.evaluate_settings", evaluate_settings)
     points = [Point("color", 0.0, False), Point("color", 0.5, False)]
     sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False, backend="warp")
     sweep_agent(AGENT, points, tmp_path, episodes=1, progress=False)  # GL's points: not the Warp ones
@@ -692,9 +692,10 @@ def test_evaluate_each_gives_each_setting_the_returns_of_its_own_warp_evaluation
 
 
 def test_warp_batches_keep_videos_apart_and_share_the_envs_among_the_processes():
-    from dcs_torchrl.pretrained import WARP_BATCH_ENVS, _results, _warp_batches, agent_directory
+    from dcs_torchrl.evaluation.scheduling import WARP_BATCH_ENVS, _warp_batches
+    from dcs_torchrl.pretrained import agent_directory, agent_results
 
-    config = _results(agent_directory(AGENT))["config"]
+    config = agent_results(agent_directory(AGENT))["config"]
     settings = {f"color{i}": {"color_scale": 0.1 * i} for i in range(6)}
     settings |= {f"video{i}": {"num_videos": 4, "background_blend": 0.2 * (i + 1)} for i in range(3)}
     batches = _warp_batches(config, settings, 10, processes=2)  # 90 envs: at most 45 a batch

@@ -240,7 +240,7 @@ def test_an_agent_acts_on_the_stacks_the_loader_rebuilds_mixed_policies_alternat
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from dcs_torchrl.evaluation import torch_threads
+    from dcs_torchrl.evaluation.protocol import torch_threads
     from dcs_torchrl.pretrained import checkpoint_sha256
 
     out = tmp_path / "mixed"
@@ -295,7 +295,7 @@ def test_bad_requests_fail_naming_the_fix(tmp_path):
 
 def test_behaviour_cloning_learns_the_sets_actions_and_is_scored_by_the_suites_evaluation(small_set):
     from dcs_torchrl.datasets.bc import score, train_bc
-    from dcs_torchrl.evaluation import torch_threads
+    from dcs_torchrl.evaluation.protocol import torch_threads
 
     with torch_threads(1):
         policy, losses = train_bc(small_set, updates=40, batch_size=18, frame_stack=3, log_every=20, lr=1e-3, shift=0)
@@ -333,7 +333,7 @@ def test_an_agent_acts_on_its_own_84_pixel_frames_while_the_set_stores_what_a_64
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from dcs_torchrl.evaluation import torch_threads
+    from dcs_torchrl.evaluation.protocol import torch_threads
     settings = dict(domain="cartpole", task="swingup", benchmark="medium", dynamic=True)
     out = tmp_path / "small64"
     record = generate(out, episodes=2, seed=3, max_steps=3, image_size=64, policies=[agent], **settings)

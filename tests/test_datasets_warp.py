@@ -8,7 +8,7 @@ import dcs_torchrl as dcs
 from dcs_torchrl.datasets import generate, load_data
 from dcs_torchrl.datasets.__main__ import main
 from dcs_torchrl.datasets.metadata import episode_seed
-from dcs_torchrl.warp_render import MASK_LABELS
+from dcs_torchrl.render.warp import MASK_LABELS
 
 pytest.importorskip("mujoco_warp")
 

@@ -7,7 +7,7 @@ not the CUDA order and Mesa's device comes first.
 import pytest
 import torch
 
-from dcs_torchrl.egl_devices import EGLDevice, egl_device_of_cuda, egl_devices, process_render_device, render_device_index
+from dcs_torchrl.render.egl_devices import EGLDevice, egl_device_of_cuda, egl_devices, process_render_device, render_device_index
 
 #: A node whose EGL order differs from its CUDA order: Mesa's device first, then CUDA 1, then CUDA 0,
 #: then a GPU that CUDA_VISIBLE_DEVICES hides (its driver gives no CUDA ordinal).

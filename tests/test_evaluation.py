@@ -10,7 +10,7 @@ from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, Paral
 
 from dcs_torchrl import ParallelSuiteEnv
 from dcs_torchrl.modules import make_encoder, make_sac_actor
-from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
+from dcs_torchrl.evaluation.protocol import EvalResult, evaluate, evaluate_in_processes
 
 # cartpole's 1000-step time limit at action repeat 100: episodes of 10 steps, where what these tests check
 # (which env runs which episode, whose rewards make which return) holds for episodes of any length
@@ -137,7 +137,7 @@ def _sub_env_seeds(seed: int, num_envs: int) -> list[int]:
 def test_a_batched_evaluation_gives_each_episode_the_return_of_that_episode_run_alone(batched, num_envs, episodes):
     """Episode by episode, a batched evaluation's returns are those of the same episodes stepped
     one env at a time: sub-env i, seeded as the batched env seeds it, runs episodes i, i + n, ...
-    (module docstring of dcs_torchrl.evaluation). A reward of one sub-env counted in another's
+    (module docstring of dcs_torchrl.evaluation.protocol). A reward of one sub-env counted in another's
     return, or an episode's return given to another, fails here."""
     policy = _policy()
     if batched == "processes":

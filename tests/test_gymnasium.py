@@ -20,7 +20,7 @@ from tensordict import TensorDict
 
 import dcs_torchrl as dcs
 from dcs_torchrl import gym_env
-from dcs_torchrl._private_api import control_timestep
+from dcs_torchrl._compat.private_api import control_timestep
 from dcs_torchrl.gym_env import DistractingControlEnv, env_id
 
 # The cameras of dog fetch track a target (make_env refuses them); its fixed camera.

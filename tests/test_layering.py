@@ -31,27 +31,67 @@ def _loaded(modules: list[str]) -> set[str]:
 
 DISTRACTION_BASE = ["dcs_torchrl._scene", "dcs_torchrl.distractions", "dcs_torchrl.distractions.base",
                     "dcs_torchrl.distractions.camera", "dcs_torchrl.distractions.color",
-                    "dcs_torchrl.distractions.background", "dcs_torchrl.render"]
+                    "dcs_torchrl.distractions.background", "dcs_torchrl.render.gl"]
 
 
 def test_the_probe_sees_what_a_module_imports():
-    assert {"dcs_torchrl.parallel", "dcs_torchrl._threads"} <= _loaded(["dcs_torchrl.parallel"])
+    assert {"dcs_torchrl.vector.parallel", "dcs_torchrl.vector._threads"} <= _loaded(["dcs_torchrl.vector.parallel"])
 
 
 def test_the_distraction_base_imports_no_processes_nor_evaluation():
     loaded = _loaded(DISTRACTION_BASE)
     assert set(DISTRACTION_BASE) <= loaded
-    assert not loaded & {"dcs_torchrl.parallel", "dcs_torchrl.evaluation", "dcs_torchrl.process_pool"}
+    assert not loaded & {"dcs_torchrl.vector.parallel", "dcs_torchrl.evaluation.protocol", "dcs_torchrl.vector.process_pool"}
 
 
 def test_nothing_below_the_envs_imports_the_evaluation_protocol():
     """The envs (one, batched, in processes) and the pool of whole jobs import no evaluation."""
-    loaded = _loaded(["dcs_torchrl.envs", "dcs_torchrl.parallel", "dcs_torchrl.batched", "dcs_torchrl.process_pool"])
-    assert "dcs_torchrl.evaluation" not in loaded
+    loaded = _loaded(["dcs_torchrl.envs", "dcs_torchrl.vector.parallel", "dcs_torchrl.vector.batched", "dcs_torchrl.vector.process_pool"])
+    assert "dcs_torchrl.evaluation.protocol" not in loaded
+
+
+#: The package's rooms, lowest first: a room's modules, once imported, have loaded nothing of a room
+#: above it (imports inside functions, e.g. ``make_env(num_envs=N)`` building a batch, are calls upward
+#: at run time, not at import). docs/architecture.md draws the same order.
+ROOMS = {
+    "compat": ["dcs_torchrl._compat", "dcs_torchrl._compat.private_api", "dcs_torchrl._compat.judged_warnings"],
+    "render": ["dcs_torchrl.presets", "dcs_torchrl._scene", "dcs_torchrl.render", "dcs_torchrl.render.warp",
+               "dcs_torchrl.render.egl_devices"],
+    "distractions": ["dcs_torchrl.distractions", "dcs_torchrl.videos"],
+    "envs": ["dcs_torchrl.envs"],
+    "vector": ["dcs_torchrl.vector", "dcs_torchrl.vector.batched", "dcs_torchrl.vector.parallel",
+               "dcs_torchrl.vector.process_pool"],
+    "agents": ["dcs_torchrl.methods", "dcs_torchrl.results", "dcs_torchrl.modules", "dcs_torchrl.objectives"],
+    "evaluation": ["dcs_torchrl.evaluation", "dcs_torchrl.evaluation.scheduling", "dcs_torchrl.pretrained"],
+    "jobs": ["dcs_torchrl.algorithms", "dcs_torchrl.training", "dcs_torchrl.datasets", "dcs_torchrl.experiments",
+             "dcs_torchrl.report", "dcs_torchrl.robustness", "dcs_torchrl.gym_env", "dcs_torchrl.gallery"],
+}
+
+
+def _room_of(module: str) -> str | None:
+    for room, modules in ROOMS.items():
+        if any(module == m or module.startswith(m + ".") for m in modules):
+            return room
+    return None
+
+
+def test_each_room_imports_nothing_from_the_rooms_above_it():
+    order = list(ROOMS)
+    for i, room in enumerate(order[:-1]):
+        above = set(order[i + 1:])
+        upward = sorted(m for m in _loaded(ROOMS[room]) if _room_of(m) in above)
+        assert not upward, f"importing the {room} room loads {upward}, of rooms above it"
+
+
+def test_every_module_of_the_package_has_a_room():
+    files = (p.relative_to(PACKAGE.parent).with_suffix("").parts for p in PACKAGE.rglob("*.py"))
+    modules = {".".join(parts[:-1] if parts[-1] == "__init__" else parts) for parts in files} - {"dcs_torchrl"}
+    assert not sorted(m for m in modules if _room_of(m) is None), "a module in no room of ROOMS"
 
 
 def test_torch_threads_is_still_the_evaluation_modules():
-    from dcs_torchrl import _threads, evaluation
+    from dcs_torchrl import evaluation
+    from dcs_torchrl.vector import _threads
 
     assert evaluation.torch_threads is _threads.torch_threads
     assert "torch_threads" in evaluation.__all__

@@ -13,7 +13,8 @@ from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import ParallelSuiteEnv, make_env
-from dcs_torchrl.egl_devices import egl_devices, process_render_device
+from dcs_torchrl.render.egl_devices import egl_devices, process_render_device
+from dcs_torchrl.vector import parallel
 
 EPISODE = 10  # agent steps per episode at action repeat 100 (cartpole's 1000-step time limit)
 SETTINGS = dict(benchmark="medium", dynamic=True, action_repeat=100, height=32, width=32, expose_distractions=True)
@@ -64,13 +65,13 @@ def _one_env_run(seed: int, actions: torch.Tensor) -> list:
 
 # Both layouts and both ways of waiting (polling, then sleeping; sleeping at once) by default: every env
 # in workers sleeping at once, and the default env (the first here, polling first); the other two under -m slow.
-@pytest.mark.parametrize("first_here, spin_s", [(False, 0), (True, dcs.parallel.SPIN_S),
-                                                pytest.param(False, dcs.parallel.SPIN_S, marks=pytest.mark.slow),
+@pytest.mark.parametrize("first_here, spin_s", [(False, 0), (True, parallel.SPIN_S),
+                                                pytest.param(False, parallel.SPIN_S, marks=pytest.mark.slow),
                                                 pytest.param(True, 0, marks=pytest.mark.slow)],
                          ids=["all-in-workers-no-polling", "first-here", "all-in-workers", "first-here-no-polling"])
 def test_each_worker_runs_the_episodes_of_one_env_with_its_seed(first_here, spin_s, request):
     n, steps = 2, 2 * EPISODE + 3  # across an episode end and a reset
-    shared = first_here and spin_s == dcs.parallel.SPIN_S
+    shared = first_here and spin_s == parallel.SPIN_S
     env = request.getfixturevalue("env2") if shared else ParallelSuiteEnv(n, FACTORY, first_here=first_here, spin_s=spin_s)
     assert [pipe is None for pipe in env._pipes] == [first_here, False]
     assert env._spin_s == spin_s
@@ -305,9 +306,9 @@ def test_worker_i_is_started_for_render_devices_i_mod_len_with_the_render_thread
     and this process's environment is as it was."""
     from contextlib import contextmanager
 
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
+    from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE
 
-    started, spawn_environment = [], dcs.parallel.spawn_environment
+    started, spawn_environment = [], parallel.spawn_environment
 
     @contextmanager
     def on_device_zero(variables):
@@ -315,8 +316,8 @@ def test_worker_i_is_started_for_render_devices_i_mod_len_with_the_render_thread
         with spawn_environment({**variables, EGL_DEVICE_VARIABLE: 0}):
             yield
 
-    monkeypatch.setattr(dcs.parallel, "render_device_indices", lambda devices: list(devices))
-    monkeypatch.setattr(dcs.parallel, "spawn_environment", on_device_zero)
+    monkeypatch.setattr(parallel, "render_device_indices", lambda devices: list(devices))
+    monkeypatch.setattr(parallel, "spawn_environment", on_device_zero)
     monkeypatch.setenv(EGL_DEVICE_VARIABLE, "1")
     before = dict(os.environ)
     env = ParallelSuiteEnv(3, FACTORY, render_devices=[2, 3], first_here=False, render_threads=0)

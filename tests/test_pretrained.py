@@ -13,7 +13,7 @@ import pytest
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from dcs_torchrl.evaluation import EVAL_THREADS, evaluate
+from dcs_torchrl.evaluation.protocol import EVAL_THREADS, evaluate
 from dcs_torchrl.pretrained import load_pretrained, shipped_agents
 
 ROOT = Path(__file__).resolve().parents[1]

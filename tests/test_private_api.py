@@ -1,4 +1,4 @@
-"""Every private TorchRL / dm_control / MuJoCo Warp symbol the package uses still exists (dcs_torchrl/_private_api.py).
+"""Every private TorchRL / dm_control / MuJoCo Warp symbol the package uses still exists (dcs_torchrl/_compat/private_api.py).
 
 An upgrade that removes one fails here, with the symbol and the module that needs it named,
 instead of deep inside a rollout or an update.
@@ -20,7 +20,7 @@ from torchrl.envs import DMControlEnv, EnvBase, ParallelEnv, SerialEnv, Transfor
 from torchrl.objectives import LossModule, SACLoss
 
 import dcs_torchrl as dcs
-from dcs_torchrl import _private_api
+from dcs_torchrl._compat import private_api as _private_api
 from dcs_torchrl.modules import make_critic, make_encoder, make_sac_actor
 from dcs_torchrl.objectives import DrQSACLoss
 
@@ -41,7 +41,7 @@ CAMERAS = ((8, 6), (12, 10))
 def warp_context():
     """A MuJoCo Warp render context of two worlds of cartpole, both cameras, each kernel once:
     ``(context, its kernel before the first render, after it, after a second)``."""
-    from dcs_torchrl.warp_render import import_warp
+    from dcs_torchrl.render.warp import import_warp
 
     wp, mjw = import_warp("cpu")
     physics = suite.load("cartpole", "swingup", task_kwargs={"random": 0}).physics
@@ -92,7 +92,7 @@ def test_private_symbol_still_exists(owner, attribute, user, live_objects):
         attribute in vars(instance) or hasattr(instance, attribute)))
     assert found, (
         f"{owner}.{attribute} is gone (torch {torch.__version__}): {user} relies on it, see "
-        "dcs_torchrl/_private_api.py for why; port that use to the new API or pin the dependency below this version."
+        "dcs_torchrl/_compat/private_api.py for why; port that use to the new API or pin the dependency below this version."
     )
 
 
@@ -110,7 +110,7 @@ def test_the_wrappers_act_on_the_live_objects(live_objects):
 
 
 def test_render_offsets_find_each_cameras_pixels(warp_context):
-    """dcs_torchrl.warp_render reads the trace's buffers where render_offsets says a camera's pixels
+    """dcs_torchrl.render.warp reads the trace's buffers where render_offsets says a camera's pixels
     start: there they are MuJoCo Warp's own unpacked colours and segmentation, and camera-frame rays
     that sweep the image row by row."""
     import warp as wp
@@ -135,7 +135,7 @@ def test_render_offsets_find_each_cameras_pixels(warp_context):
 
 
 def test_render_offsets_refuse_a_context_without_segmentation():
-    from dcs_torchrl.warp_render import import_warp
+    from dcs_torchrl.render.warp import import_warp
 
     wp, mjw = import_warp("cpu")
     mjm = suite.load("cartpole", "swingup").physics.model.ptr
@@ -154,12 +154,12 @@ def test_mujoco_warp_builds_a_contexts_kernel_at_its_first_render_and_keeps_it(w
 
 
 def test_dm_control_skybox_asset_is_rewritten_by_compact_skies():
-    """dcs_torchrl.batched.compact_skies rewrites the texture size in dm_control.suite.common.ASSETS:
+    """dcs_torchrl.vector.batched.compact_skies rewrites the texture size in dm_control.suite.common.ASSETS:
     a model compiled inside it has a skybox of texture_size texels a face, one compiled after it 800."""
-    from dcs_torchrl import batched
+    from dcs_torchrl.vector import batched
 
     compact_skies = getattr(batched, "compact_skies", None)
-    assert compact_skies is not None, ("dcs_torchrl.batched.compact_skies is gone: remove dm_control.suite.common.ASSETS "
+    assert compact_skies is not None, ("dcs_torchrl.vector.batched.compact_skies is gone: remove dm_control.suite.common.ASSETS "
                                        "from _private_api.PRIVATE_SYMBOLS and this test")
 
     def sky_sides():
@@ -188,12 +188,12 @@ DOCUMENTED_HOOKS = {"_call"}
 
 
 def test_every_private_symbol_the_package_reads_is_listed():
-    """A private TorchRL / dm_control attribute read outside _private_api.py (and not one the package
+    """A private TorchRL / dm_control attribute read outside _compat/private_api.py (and not one the package
     defines itself, e.g. an override) must be in PRIVATE_SYMBOLS, so that the test above checks it."""
     package = Path(dcs.__file__).parent
     defined, read = set(), {}
     for path in sorted(package.rglob("*.py")):
-        if path.name == "_private_api.py":
+        if path == package / "_compat" / "private_api.py":
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
@@ -205,4 +205,4 @@ def test_every_private_symbol_the_package_reads_is_listed():
     listed = {attribute for _, attribute, _ in _private_api.PRIVATE_SYMBOLS} | DOCUMENTED_HOOKS
     unlisted = {name: where for name, where in read.items()
                 if name not in defined | listed and any(hasattr(owner, name) for owner in OWNERS)}
-    assert unlisted == {}, "route these through dcs_torchrl/_private_api.py (and list them in PRIVATE_SYMBOLS)"
+    assert unlisted == {}, "route these through dcs_torchrl/_compat/private_api.py (and list them in PRIVATE_SYMBOLS)"

@@ -10,7 +10,8 @@ from dm_control.mujoco import engine
 from torchrl.envs import Compose, DMControlEnv, ExcludeTransform, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, ParallelSuiteEnv, RenderPixels, make_env, render
+from dcs_torchrl import BackgroundDistraction, CameraDistraction, ColorDistraction, ParallelSuiteEnv, RenderPixels, make_env
+from dcs_torchrl.render import gl as render
 from dcs_test_utils import PAPER_TASKS, physics_of, solid_video
 
 
@@ -159,8 +160,8 @@ def test_profile_conflict_and_bad_arguments():
 
 
 # ----------------------------------------------------------------- the sky upload
-# The skybox is sent in part: the rectangles of the faces the camera sees (render.py,
-# _skybox.py). Tolerance: none, the pixels must equal those of a whole six-face upload.
+# The skybox is sent in part: the rectangles of the faces the camera sees (render/gl.py,
+# render/skybox.py). Tolerance: none, the pixels must equal those of a whole six-face upload.
 SKY_CASES = {
     "medium camera": dict(camera=dict(scale=0.2), background=dict(dynamic=True)),
     "camera at scale 1": dict(camera=dict(scale=1.0), background=dict(dynamic=True)),

@@ -49,8 +49,9 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
     each pool's device is recorded and its processes are spawned on device 0, with this process
     pretending to render on 1: a process that did not get its pool's variable fails its start.
     (One sweep for both checks: each spawned process costs seconds.)"""
-    from dcs_torchrl import egl_devices, process_pool
-    from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE
+    from dcs_torchrl.render import egl_devices
+    from dcs_torchrl.vector import process_pool
+    from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE
 
     points = [Point("camera", 0.3, True), Point("background", 0.5, True, reference_blend=True), Point("color", 0.0, False)]
     agent = load_pretrained(short_agent)
@@ -150,7 +151,7 @@ def evaluated(monkeypatch):
             returns = [float(len(calls))] * episodes
             yield key, {"mean": returns[0], "stderr": 0.0, "episodes": episodes, "returns": returns}, 0.0
 
-    monkeypatch.setattr("dcs_torchrl.pretrained.evaluate_settings", evaluate_settings)
+    monkeypatch.setattr("dcs_torchrl.evaluation.scheduling.evaluate_settings", evaluate_settings)
     return calls
 
 
@@ -317,9 +318,9 @@ def test_the_bar_counts_the_envs_it_evaluates_and_the_last_line_says_so(tmp_path
 
 
 def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkeypatch, short_agent):
-    import dcs_torchrl.pretrained
+    import dcs_torchrl.evaluation.scheduling
 
-    evaluate_settings = dcs_torchrl.pretrained.evaluate_settings
+    evaluate_settings = dcs_torchrl.evaluation.scheduling.evaluate_settings
     points = sweep_points(["color"], [0.0, 1.0])
     whole = sweep(tmp_path / "whole", points, agent=short_agent)
 
@@ -330,7 +331,7 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
         yield next(evaluate_settings(agent, settings, episodes, **kwargs))
         raise Killed
 
-    monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", killed_after_one)
+    monkeypatch.setattr(dcs_torchrl.evaluation.scheduling, "evaluate_settings", killed_after_one)
     with pytest.raises(Killed):
         sweep(tmp_path / "resumed", points, agent=short_agent)
     assert len(list((tmp_path / "resumed" / "points").iterdir())) == 1
@@ -340,7 +341,7 @@ def test_an_interrupted_sweep_resumes_with_the_points_it_misses(tmp_path, monkey
         resumed.extend(settings.values())
         yield from evaluate_settings(agent, settings, episodes, **kwargs)
 
-    monkeypatch.setattr(dcs_torchrl.pretrained, "evaluate_settings", counted)
+    monkeypatch.setattr(dcs_torchrl.evaluation.scheduling, "evaluate_settings", counted)
     assert sweep(tmp_path / "resumed", points, agent=short_agent) == whole and len(resumed) == 1
 
 
@@ -354,7 +355,7 @@ def test_a_render_device_the_machine_lacks_is_refused_before_anything_is_written
 
 
 def test_an_evaluation_process_spawned_on_another_device_than_its_own_refuses_to_start(monkeypatch):
-    from dcs_torchrl.pretrained import _start_worker
+    from dcs_torchrl.evaluation.scheduling import _start_worker
 
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "0")
     with pytest.raises(RuntimeError, match="must be spawned with MUJOCO_EGL_DEVICE_ID=3"):

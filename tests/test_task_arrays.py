@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from dm_control import suite
 
-from dcs_torchrl.task_arrays import TASKS, Ids, task_arrays
+from dcs_torchrl.vector.task_arrays import TASKS, Ids, task_arrays
 
 STATES = 64
 

@@ -1,4 +1,4 @@
-"""dcs_torchrl.warp_render: what its users see of Warp (the frames: tests/test_batched.py)."""
+"""dcs_torchrl.render.warp: what its users see of Warp (the frames: tests/test_batched.py)."""
 import os
 import subprocess
 import sys

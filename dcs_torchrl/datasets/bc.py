@@ -7,7 +7,7 @@ The policy is DrQ's pixel encoder (:func:`dcs_torchrl.modules.networks.make_enco
 own) and a 2-layer MLP with a tanh output, trained to regress the set's actions (mean squared
 error, Adam) on stacked frames sampled by :func:`dcs_torchrl.datasets.load`, with DrQ's random
 shift (V-D4RL's DrQ+BC uses the same augmentation). It is then evaluated as the recipes evaluate an
-agent (:func:`dcs_torchrl.evaluation.evaluate`: deterministic episodes of the recipes' pixel env,
+agent (:func:`dcs_torchrl.evaluation.protocol.evaluate`: deterministic episodes of the recipes' pixel env,
 one torch thread) in each ``--eval`` setting (a benchmark, ``:dynamic`` for its dynamic setting),
 with ``--expert`` the set's first agent beside it on the same episodes (the same seed). Writes
 ``<out>/policy.pt`` and ``<out>/results.json``.
@@ -50,7 +50,7 @@ def evaluation_settings(text: str) -> dict:
 
 def score(policy, domain: str, task: str, settings: dict, pixels: dict, episodes: int, seed: int) -> dict:
     """The recipes' evaluation of ``policy`` in the pixel env of ``settings``: ``EvalResult.to_dict()``."""
-    from dcs_torchrl.evaluation import evaluate
+    from dcs_torchrl.evaluation.protocol import evaluate
     from dcs_torchrl.training.envs import close_env, config_settings, pixel_env
 
     env = pixel_env(config_settings({"domain": domain, "task": task}, settings), seed=seed, **pixels)

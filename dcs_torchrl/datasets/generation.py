@@ -107,7 +107,7 @@ class _Plan:
                              "episodes): use --backend gl for it.")
 
     def make_env(self):
-        from dcs_torchrl.render import RenderPixels
+        from dcs_torchrl.render.gl import RenderPixels
 
         size, profile = self.pixels["image_size"], self.pixels["render_profile"]
         batch = {"backend": "warp", "num_envs": self.num_envs, "masks": self.pixels["masks"]} \
@@ -240,7 +240,7 @@ def _check_writable(out: Path, episodes: int, held: int) -> None:
 
 
 def _record(record: dict, table: list[dict], data: TensorDict | None, asked: dict) -> dict:
-    from dcs_torchrl.evaluation import EvalResult
+    from dcs_torchrl.evaluation.protocol import EvalResult
 
     returns = EvalResult(tuple(e["return"] for e in table)) if table else None
     return {**record, "versions": metadata.versions(), "episode_seeds": metadata.EPISODE_SEEDS,
@@ -299,7 +299,7 @@ def generate(out: str | os.PathLike, *, domain: str, task: str, episodes: int,
             its own image size whatever the set's (module text).
         max_steps: cut episodes after that many steps (``truncated``), e.g. for short test sets.
         backend: ``"gl"`` (one env) or ``"warp"`` (``num_envs`` envs in one batch,
-            :class:`dcs_torchrl.batched.BatchedSuiteEnv`); part of the set's identity.
+            :class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`); part of the set's identity.
         num_envs: ``backend="warp"``: envs of the batch (default :data:`DEFAULT_NUM_ENVS`, at most the
             episodes to make). Not part of the identity: the episodes are the same for any value.
         progress: a progress bar (tqdm) over the episodes.
@@ -383,7 +383,7 @@ def _write_episodes(out: Path, env, plan: _Plan, todo: list[int], behaviours, mi
         if env is not None:
             env.close()
         return
-    from dcs_torchrl.evaluation import torch_threads
+    from dcs_torchrl.evaluation.protocol import torch_threads
 
     bar = None
     if progress:

@@ -40,7 +40,7 @@ def episode_seeds(seed: int, first: int, count: int) -> list[int]:
     >>> episode_seeds(0, 0, 3)[1:] == episode_seeds(0, 1, 2) and episode_seeds(7, 0, 1) == [7]
     True
     """
-    from dcs_torchrl._private_api import seed_generator  # what EnvBase.set_seed returns
+    from dcs_torchrl._compat.private_api import seed_generator  # what EnvBase.set_seed returns
 
     chained = seed
     for _ in range(first):

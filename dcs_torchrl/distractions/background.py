@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 
 from dcs_torchrl._scene import Scene, originals
-from dcs_torchrl._skybox import cube_faces, skybox_texture
+from dcs_torchrl.render.skybox import cube_faces, skybox_texture
 from dcs_torchrl.distractions.base import DistractionTransform, check_scale
 from dcs_torchrl.videos import ArraySource, VideoSource, open_source
 
@@ -221,7 +221,7 @@ class BackgroundDistraction(DistractionTransform):
         """Called by RenderPixels right before it renders: hands over the new sky, if any.
 
         The render context then uploads the part of it the rendered camera sees (see
-        :meth:`dcs_torchrl.render._Context.upload_cube`), and the rest when a camera needs it.
+        :meth:`dcs_torchrl.render.gl._Context.upload_cube`), and the rest when a camera needs it.
         """
         if self._pending is not None:
             context.upload_cube(self._sky, self._pending)

@@ -23,7 +23,7 @@ from tensordict import TensorDictBase
 from torchrl.data import Composite, Unbounded
 from torchrl.envs import Transform
 
-from dcs_torchrl._private_api import base_set_seed, replace_set_seed
+from dcs_torchrl._compat.private_api import base_set_seed, replace_set_seed
 from dcs_torchrl._scene import Scene, locate
 
 
@@ -115,7 +115,7 @@ class DistractionTransform(Transform):
         scene = locate(self, strict=strict)
         if scene is None:
             return None
-        from dcs_torchrl.render import RenderPixels  # render imports nothing from here
+        from dcs_torchrl.render.gl import RenderPixels  # render imports nothing from here
 
         if any(isinstance(t, RenderPixels) for t in scene.before()):
             raise RuntimeError(
@@ -145,7 +145,7 @@ class DistractionTransform(Transform):
     def step_scene(self) -> None:
         """What an agent step does to the scene: the walk advanced by ``frame_skip`` control steps,
         the scene edited. ``_step`` calls it; so does a batched env that steps this transform's
-        physics itself (:class:`dcs_torchrl.batched.BatchedSuiteEnv`)."""
+        physics itself (:class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`)."""
         scene = self._bind()
         self._advance(scene.frame_skip)
         self._edit_scene(scene.physics)

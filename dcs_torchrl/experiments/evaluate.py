@@ -107,7 +107,7 @@ def evaluate_checkpoint(
             driver maps it, as in training; not the trained run's, which names its own machine).
         threads: torch threads (``None``: torch's default).
         processes: evaluations run at once, each in its own process and one env per evaluation
-            (:func:`dcs_torchrl.pretrained.evaluate_settings`); every return is the one a lone
+            (:func:`dcs_torchrl.evaluation.scheduling.evaluate_settings`); every return is the one a lone
             evaluation gives.
 
     Returns:
@@ -115,7 +115,8 @@ def evaluate_checkpoint(
     """
     import torch
 
-    from dcs_torchrl.pretrained import agent_directory, checkpoint_sha256, evaluate_settings
+    from dcs_torchrl.evaluation.scheduling import evaluate_settings
+    from dcs_torchrl.pretrained import agent_directory, checkpoint_sha256
     from dcs_torchrl.training import RunDirectory
     from dcs_torchrl.training.envs import config_settings, render_device
 

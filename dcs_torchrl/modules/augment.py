@@ -32,7 +32,7 @@ from tensordict.utils import NestedKey
 from torchrl.data.tensor_specs import Bounded, TensorSpec, Unbounded
 from torchrl.envs.transforms import Transform
 
-from dcs_torchrl._private_api import set_missing_tolerance
+from dcs_torchrl._compat.private_api import set_missing_tolerance
 from dcs_torchrl.methods import augmentation_copies
 
 __all__ = [

@@ -15,7 +15,7 @@ from torchrl.envs.transforms import Transform
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import dispatch_value_estimator, ValueEstimators
 
-from dcs_torchrl._private_api import build_default_value_estimator, priority_weight, reduce_loss, value_estimator_kwargs, vmap_func
+from dcs_torchrl._compat.private_api import build_default_value_estimator, priority_weight, reduce_loss, value_estimator_kwargs, vmap_func
 from dcs_torchrl.modules.networks import action_bounds
 from dcs_torchrl.objectives.cem import cem_maximize
 from dcs_torchrl.objectives.drq import DrQEncoding

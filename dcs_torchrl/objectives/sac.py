@@ -13,7 +13,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives import SACLoss
 from torchrl.objectives.sac import compute_rsample_log_prob
 
-from dcs_torchrl._private_api import build_default_value_estimator, priority_weight, reduce_loss, sac_alpha_loss
+from dcs_torchrl._compat.private_api import build_default_value_estimator, priority_weight, reduce_loss, sac_alpha_loss
 from dcs_torchrl.objectives.drq import DrQEncoding
 
 __all__ = ["DrQSACLoss"]

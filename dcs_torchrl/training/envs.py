@@ -32,10 +32,10 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import CatFrames, Compose, EnvBase, PermuteTransform, RewardSum, SerialEnv, TransformedEnv
 
-from dcs_torchrl.egl_devices import egl_device_of_cuda, process_render_device, render_device_index
+from dcs_torchrl.render.egl_devices import egl_device_of_cuda, process_render_device, render_device_index
 from dcs_torchrl.envs import (SCENE_OPTIONS, EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings,
                               scene_options)
-from dcs_torchrl.parallel import ParallelSuiteEnv
+from dcs_torchrl.vector.parallel import ParallelSuiteEnv
 
 __all__ = ["batched_pixel_env", "close_env", "config_settings", "grouped_pixel_env", "pixel_env", "pixel_env_factory",
            "pixel_options", "render_device", "train_eval_settings"]
@@ -169,7 +169,7 @@ def batched_pixel_env(
     worker ``seed``, each next one the seed TorchRL's ``set_seed`` derives from the previous one's).
 
     ``backend="warp"``: the ``num_workers`` envs in this process, rendered in one batch by MuJoCo
-    Warp on the CPU (:class:`~dcs_torchrl.batched.BatchedSuiteEnv`; the same episodes as the GL
+    Warp on the CPU (:class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv`; the same episodes as the GL
     envs' for the same seed); ``render_device`` is then unused.
 
     One env runs in this process (``SerialEnv``): no worker to wake while it renders. Several are

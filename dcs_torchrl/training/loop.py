@@ -29,7 +29,7 @@ from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
 from dcs_torchrl.envs import BACKENDS
-from dcs_torchrl.evaluation import EvalResult, evaluate, evaluate_in_processes
+from dcs_torchrl.evaluation.protocol import EvalResult, evaluate, evaluate_in_processes
 from dcs_torchrl.methods import method_name
 from dcs_torchrl.results import RunResults
 from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
@@ -109,7 +109,7 @@ def _check_config(cfg: DictConfig) -> None:
         raise ValueError(f"collector.backend={backend!r}: choose one of {list(BACKENDS)} (gl: one env per process; "
                          "warp: collector.num_workers envs in this process, rendered in one batch).")
     if backend == "warp":
-        from dcs_torchrl.warp_render import import_warp
+        from dcs_torchrl.render.warp import import_warp
 
         import_warp()  # the extra's error, naming it, before anything is written
 

@@ -8,7 +8,7 @@ from torchrl.envs import Compose, DMControlEnv, TransformedEnv
 
 from dcs_torchrl import BackgroundDistraction, RenderPixels
 from dcs_torchrl.distractions.background import bounce
-from dcs_torchrl.render import render_context
+from dcs_torchrl.render.gl import render_context
 from dcs_test_utils import numbered_video, physics_of, solid_video, tinted_video
 
 RED = (255, 0, 0)

@@ -2,7 +2,7 @@
 
 A batched policy on the CPU makes the parallel env's workers wait while it acts on the batch
 (docs/performance.md, "Evaluation on the CPU"), so there the workspace evaluates through
-:func:`~dcs_torchrl.evaluation.evaluate_in_processes`: the episodes a batched evaluation gives,
+:func:`~dcs_torchrl.evaluation.protocol.evaluate_in_processes`: the episodes a batched evaluation gives,
 each env's observations given to the policy one at a time.
 """
 import pytest
@@ -10,7 +10,7 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 from torchrl.envs import SerialEnv
 
-from dcs_torchrl.evaluation import evaluate
+from dcs_torchrl.evaluation.protocol import evaluate
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunDirectory
 from dcs_torchrl.training.loop import EVAL_SEED_OFFSET, Workspace

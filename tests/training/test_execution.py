@@ -309,7 +309,7 @@ def test_the_render_device_is_the_policys_gpu_where_an_egl_device_is_that_gpu():
     """``execution.render_device``: ``auto`` on the CPU leaves rendering to this process's device;
     an EGL index is taken when the machine has it; on CUDA ``auto`` is that GPU's EGL device, or
     this process's where no EGL device is that GPU (Mesa); a bad value is refused naming the fix."""
-    from dcs_torchrl.egl_devices import egl_device_of_cuda, egl_devices
+    from dcs_torchrl.render.egl_devices import egl_device_of_cuda, egl_devices
     from dcs_torchrl.training.envs import render_device
 
     assert render_device(config("sac")) is None

@@ -14,7 +14,7 @@ The queries go to ``libEGL`` through ctypes and create no display or context, so
 nothing and work in a process that already renders.
 
 Examples:
-    >>> from dcs_torchrl.egl_devices import egl_devices
+    >>> from dcs_torchrl.render.egl_devices import egl_devices
     >>> devices = egl_devices()  # Mesa on a CPU machine: one software device, no CUDA
     >>> devices[0].index, isinstance(devices[0].extensions, tuple)
     (0, True)

@@ -35,10 +35,10 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
-from dcs_torchrl._batching import chain_seeds, marked
-from dcs_torchrl._threads import torch_threads
-from dcs_torchrl.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
-from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
+from dcs_torchrl.vector._batching import chain_seeds, marked
+from dcs_torchrl.vector._threads import torch_threads
+from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
+from dcs_torchrl.render.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -79,7 +79,7 @@ class ParallelSuiteEnv(EnvBase):
             ``render_devices[i % len(render_devices)]``, so that the workers of one run spread over
             the GPUs of a node: an EGL device index (``MUJOCO_EGL_DEVICE_ID``'s, not a CUDA
             ordinal) or a CUDA device (``"cuda:1"``, a ``torch.device``), which is mapped to its
-            EGL device (:func:`dcs_torchrl.egl_devices.egl_device_of_cuda`, NVIDIA's EGL driver).
+            EGL device (:func:`dcs_torchrl.render.egl_devices.egl_device_of_cuda`, NVIDIA's EGL driver).
             ``None`` (default): the device this process's environment names (dm_control's
             default, the first). A device the machine does not have raises ``ValueError`` here,
             naming the machine's EGL devices.

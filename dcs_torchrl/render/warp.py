@@ -2,7 +2,7 @@
 
 The worlds' state reaches the renderer as whole arrays (:class:`WorldState`: geom, camera and
 light poses, material colours, the sky of each world), wherever they come from: here, from N
-dm_control physics stepped in this process (:mod:`dcs_torchrl.batched`). One call ray-traces every
+dm_control physics stepped in this process (:mod:`dcs_torchrl.vector.batched`). One call ray-traces every
 world's camera (MuJoCo Warp's ``render``: the scene BVH refitted, shading with the model's lights,
 textures, optional shadows) with the sky left black, then one kernel of this module finishes each
 pixel as MuJoCo's OpenGL renderer does for the suite's scenes:
@@ -33,9 +33,9 @@ import mujoco
 import numpy as np
 import torch
 
-from dcs_torchrl._skybox import cube_faces, skybox_texture
+from dcs_torchrl.render.skybox import cube_faces, skybox_texture
 
-from dcs_torchrl._private_api import render_offsets
+from dcs_torchrl._compat.private_api import render_offsets
 
 #: The labels of ``masks`` (uint8 per pixel).
 MASK_LABELS: MappingProxyType[str, int] = MappingProxyType({"background": 0, "floor": 1, "agent": 2})
@@ -305,7 +305,7 @@ class WarpRenderer:
             self._sky = None
             self._finish = _kernels(wp)
             # Build this renderer's kernels now, in the thread that makes it: MuJoCo Warp specialises
-            # a kernel per render context at its first render (dcs_torchrl/_private_api.py), and the
+            # a kernel per render context at its first render (dcs_torchrl/_compat/private_api.py), and the
             # renderers of one batch render in threads at once (BatchedSuiteEnv), where two first
             # renders must not build theirs together. A render of the zeroed worlds builds it.
             mjw.refit_bvh(self.model, self.data, self.context)

@@ -3,8 +3,8 @@
 An env's workers (:class:`~dcs_torchrl.ParallelSuiteEnv`) step in lock-step with the process that
 owns the env. Two jobs are bigger than a step and run whole in other processes, each through
 :class:`SpawnedPool`: an evaluation's episodes spread over processes that each hold a copy of the
-policy (:func:`dcs_torchrl.evaluation.evaluate_in_processes`), and whole robustness points, one
-pool per render device (:func:`dcs_torchrl.pretrained.evaluate_settings`). A pool's processes are
+policy (:func:`dcs_torchrl.evaluation.protocol.evaluate_in_processes`), and whole robustness points, one
+pool per render device (:func:`dcs_torchrl.evaluation.scheduling.evaluate_settings`). A pool's processes are
 spawned (EGL contexts do not survive ``fork``) with the environment variables they must read at
 their first import of dm_control (the EGL device, Mesa's render threads), run a set number of
 torch threads, and end when the process that started them is gone (:func:`exit_with`): killed, no
@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 
-from dcs_torchrl.egl_devices import spawn_environment
+from dcs_torchrl.render.egl_devices import spawn_environment
 
 __all__ = ["SpawnedPool", "exit_with"]
 
@@ -34,7 +34,7 @@ class SpawnedPool(ProcessPoolExecutor):
 
     Keyword Args:
         environment (dict, optional): variables each process starts with (``None``: as in this process's);
-            this process's environment is left as it was (:func:`dcs_torchrl.egl_devices.spawn_environment`).
+            this process's environment is left as it was (:func:`dcs_torchrl.render.egl_devices.spawn_environment`).
         threads (int): torch threads of each process. Default 1.
         initializer, initargs: run once in each process after the above (e.g. to load a policy).
 

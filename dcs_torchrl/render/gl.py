@@ -18,7 +18,7 @@ what the render samples is sent: of the six cube faces, the rectangles the camer
 frustum covers (widened to cover texture filtering), each as its two finest mipmap
 levels; the rest follows when a camera turns towards it. The pixels are those of a
 six-face upload (compared exactly in ``tests/test_render.py``); see
-:meth:`_Context.upload_cube` and :mod:`dcs_torchrl._skybox`.
+:meth:`_Context.upload_cube` and :mod:`dcs_torchrl.render.skybox`.
 """
 from __future__ import annotations
 
@@ -36,8 +36,9 @@ from tensordict import TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import Transform
 
-from dcs_torchrl import _skybox, presets
-from dcs_torchrl._private_api import free_foreign_render_contexts
+from dcs_torchrl import presets
+from dcs_torchrl.render import skybox
+from dcs_torchrl._compat.private_api import free_foreign_render_contexts
 from dcs_torchrl._scene import Scene, locate
 
 
@@ -143,7 +144,7 @@ class _Context:
 
         For the skybox that is, on each face its view frustum (``aspect`` = width / height)
         meets, the rectangle around the part it sees, the frustum widened by a margin that
-        covers texture filtering (:mod:`dcs_torchrl._skybox`); other cube textures, the
+        covers texture filtering (:mod:`dcs_torchrl.render.skybox`); other cube textures, the
         free camera and :attr:`upload_all_faces` get whole faces. The pixels are those of
         a whole upload (``tests/test_render.py`` compares them exactly).
         """
@@ -158,7 +159,7 @@ class _Context:
                 view = (camera_id, aspect, fovy, self.physics.data.cam_xmat[camera_id].tobytes())
                 if view == content.last_view:
                     continue  # what this view samples was sent (a still camera)
-                regions = _skybox.camera_regions(self.physics, camera_id, aspect, content.margin)
+                regions = skybox.camera_regions(self.physics, camera_id, aspect, content.margin)
                 content.last_view = view
             rects = content.take(regions)
             if rects:
@@ -173,7 +174,7 @@ class _Context:
 
 _SKY_LEVELS = 2  # mipmap levels kept for a skybox the suite rewrites (finest first)
 _PAD = 2  # texels added around a rectangle to send (the frustum's margin already covers filtering)
-_WHOLE_FACES = dict.fromkeys(range(6), _skybox.FULL)
+_WHOLE_FACES = dict.fromkeys(range(6), skybox.FULL)
 
 
 class _CubeContent:
@@ -182,7 +183,7 @@ class _CubeContent:
     def __init__(self, faces: list[np.ndarray]):
         self.faces = faces
         self.side = int(faces[0].shape[0])
-        self.margin = _skybox.face_margin(max(1, self.side >> (_SKY_LEVELS - 1)))
+        self.margin = skybox.face_margin(max(1, self.side >> (_SKY_LEVELS - 1)))
         self.fresh: list[tuple[int, int, int, int] | None] = [None] * 6  # per GPU face, a rectangle sent
         self.last_view = None
         self._whole: dict[int, list[np.ndarray]] = {}

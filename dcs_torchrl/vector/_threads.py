@@ -1,8 +1,8 @@
 """torch's intra-op thread count for a block of code: below the envs and the evaluation protocol.
 
-:mod:`dcs_torchrl.parallel` (the env it steps in this process) and :mod:`dcs_torchrl.evaluation`
+:mod:`dcs_torchrl.vector.parallel` (the env it steps in this process) and :mod:`dcs_torchrl.evaluation.protocol`
 (an evaluation's episodes) both use :func:`torch_threads`; it lives here so that the parallel env
-does not import the evaluation protocol. ``dcs_torchrl.evaluation.torch_threads`` is the same function.
+does not import the evaluation protocol. ``dcs_torchrl.evaluation.protocol.torch_threads`` is the same function.
 """
 from __future__ import annotations
 

@@ -22,9 +22,9 @@ symbol                                         used by, and why
                                                dm_control env, for its ``physics`` (no public
                                                accessor); :mod:`dcs_torchrl.gym_env`: its
                                                ``control_timestep()``, for ``render_fps``;
-                                               :mod:`dcs_torchrl.batched`: the dm_control env
+                                               :mod:`dcs_torchrl.vector.batched`: the dm_control env
                                                each env of a batch steps.
-``Physics._contexts``,                         :mod:`dcs_torchrl.render`: a render context
+``Physics._contexts``,                         :mod:`dcs_torchrl.render.gl`: a render context
 ``Physics._free_rendering_contexts``           made by someone else with other settings is
                                                freed before the suite's own is made.
 ``torchrl.envs.transforms.utils.               :mod:`dcs_torchrl.modules.augment`: an
@@ -50,18 +50,18 @@ _set_missing_tolerance``                       augmentation applied at reset tol
 ``LossModule.                                  :mod:`dcs_torchrl.objectives.qtopt`:
 _prepare_value_estimator_kwargs``              ``make_value_estimator``'s defaults (gamma
                                                ...), as TorchRL's losses resolve them.
-``dm_control.suite.common.ASSETS``             :func:`dcs_torchrl.batched.compact_skies`: the
+``dm_control.suite.common.ASSETS``             :func:`dcs_torchrl.vector.batched.compact_skies`: the
 (``./common/skybox.xml``'s text)               skybox's ``width``/``height`` rewritten while
                                                the envs of a batch whose sky is never rendered
                                                compile (dm_control takes no texture size).
-``mujoco_warp.RenderContext``'s ``rgb_data``,  :mod:`dcs_torchrl.warp_render`: one kernel reads
+``mujoco_warp.RenderContext``'s ``rgb_data``,  :mod:`dcs_torchrl.render.warp`: one kernel reads
 ``rgb_adr``, ``seg_data``, ``seg_adr``,        the trace's packed colours, segmentation and
 ``ray``, ``cam_res``                           camera-frame rays where a camera's pixels start
                                                (:func:`render_offsets`) and finishes each pixel
                                                (sky, see-through floor, labels) in one pass;
                                                ``get_rgb`` / ``get_segmentation`` copy each
                                                buffer out apart, and nothing public gives rays.
-dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.batch_physics`: steps the
+dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.vector.batch_physics`: steps the
 ``._step_limit``, ``._reset_next_step``,       physics of a batch's envs without their
 ``._n_sub_steps``                              ``step`` (MuJoCo's C over threads), so keeps
                                                their episode clocks as ``step`` keeps them; no
@@ -69,7 +69,7 @@ dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.batch_physics`:
 ``torchrl._utils.seed_generator``              :mod:`dcs_torchrl.datasets.metadata`: the seed
                                                ``EnvBase.set_seed`` returns, for episode k's
                                                seed without building k envs.
-``RenderContext._megakernel``                  :mod:`dcs_torchrl.warp_render`: MuJoCo Warp
+``RenderContext._megakernel``                  :mod:`dcs_torchrl.render.warp`: MuJoCo Warp
                                                builds a context's kernel at its first render
                                                and keeps it there; a renderer renders once when
                                                made, so that renderers made in one thread and
@@ -97,10 +97,10 @@ __all__ = [
 PRIVATE_SYMBOLS = (
     ("torchrl.envs.EnvBase", "_set_seed", "dcs_torchrl.distractions.base"),
     ("torchrl.envs.Transform", "_container", "dcs_torchrl._scene"),
-    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env, dcs_torchrl.batched"),
-    ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render"),
-    ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render"),
-    ("dm_control.suite.common", "ASSETS", "dcs_torchrl.batched"),
+    ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env, dcs_torchrl.vector.batched"),
+    ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render.gl"),
+    ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render.gl"),
+    ("dm_control.suite.common", "ASSETS", "dcs_torchrl.vector.batched"),
     ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.modules.augment"),
     ("torchrl.objectives.utils", "_vmap_func", "dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.SACLoss", "_compute_target_v2", "dcs_torchrl.objectives.sac"),
@@ -112,8 +112,8 @@ PRIVATE_SYMBOLS = (
     ("torchrl.objectives.LossModule", "_default_value_estimator", "dcs_torchrl.objectives.sac, dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.LossModule", "_prepare_value_estimator_kwargs", "dcs_torchrl.objectives.qtopt"),
     ("torchrl._utils", "seed_generator", "dcs_torchrl.datasets.metadata"),
-) + tuple(("dm_control.rl.control.Environment", field, "dcs_torchrl.batch_physics")
-          for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.warp_render")
+) + tuple(("dm_control.rl.control.Environment", field, "dcs_torchrl.vector.batch_physics")
+          for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.render.warp")
           for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel"))
 
 

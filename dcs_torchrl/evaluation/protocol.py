@@ -33,7 +33,7 @@ from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from dcs_torchrl._threads import torch_threads
+from dcs_torchrl.vector._threads import torch_threads
 
 __all__ = ["EVAL_THREADS", "EvalResult", "evaluate", "evaluate_in_processes", "torch_threads"]
 
@@ -212,8 +212,8 @@ def evaluate_in_processes(
     """
     from concurrent.futures.process import BrokenProcessPool
 
-    from dcs_torchrl.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share
-    from dcs_torchrl.process_pool import SpawnedPool
+    from dcs_torchrl.render.egl_devices import RENDER_THREADS_VARIABLE, render_threads_share
+    from dcs_torchrl.vector.process_pool import SpawnedPool
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}.")

@@ -6,14 +6,14 @@ GL env's physics, task and distractions without its render: a
 ColorDistraction, BackgroundDistraction))``, seeded as TorchRL's batched envs seed their workers (env
 ``i`` gets the seed env ``i - 1``'s ``set_seed`` returns). A reset goes through that env's own TorchRL
 ``reset`` (the task's ``initialize_episode``). A step of the paper's six tasks
-(:data:`dcs_torchrl.task_arrays.TASKS`) runs every env's physics in MuJoCo's C over threads and the
-task's reward and observation over arrays (:class:`~dcs_torchrl.batch_physics.BatchPhysics`); any other
+(:data:`dcs_torchrl.vector.task_arrays.TASKS`) runs every env's physics in MuJoCo's C over threads and the
+task's reward and observation over arrays (:class:`~dcs_torchrl.vector.batch_physics.BatchPhysics`); any other
 task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then each
 distraction's :meth:`~dcs_torchrl.distractions.base.DistractionTransform.step_scene`, the
 transform's own step. So env ``i``'s rewards, resets, terminations and distraction draws are those of
 env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
 (``tests/test_batched.py``). Then the N worlds' poses, colours and skies go, as whole arrays, to one
-:class:`~dcs_torchrl.warp_render.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
+:class:`~dcs_torchrl.render.warp.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
 
 Partial resets (``"_reset"``) and partial steps (``"_step"``, which TorchRL's ``rollout`` writes) act on
 the envs they name only; the others continue their episodes.
@@ -34,19 +34,19 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
-from dcs_torchrl._batching import chain_seeds, marked
+from dcs_torchrl.vector._batching import chain_seeds, marked
 from dcs_torchrl._scene import locate
-from dcs_torchrl.batch_physics import BatchPhysics
+from dcs_torchrl.vector.batch_physics import BatchPhysics
 from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
-from dcs_torchrl.render import check_profile
-from dcs_torchrl.task_arrays import task_arrays
-from dcs_torchrl.warp_render import MASK_LABELS, WarpRenderer, skybox_faces
+from dcs_torchrl.render.gl import check_profile
+from dcs_torchrl.vector.task_arrays import task_arrays
+from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer, skybox_faces
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
 
 #: The Warp backend's render settings by ``render_profile`` (the names of GL's
-#: :data:`dcs_torchrl.render.PROFILES`): ``"default"`` draws shadows as GL's default profile does; ``"fast"`` none.
+#: :data:`dcs_torchrl.render.gl.PROFILES`): ``"default"`` draws shadows as GL's default profile does; ``"fast"`` none.
 WARP_PROFILES = {"default": {"shadows": True}, "fast": {"shadows": False}}
 
 
@@ -158,7 +158,7 @@ class BatchedSuiteEnv(EnvBase):
         camera_id (int): the camera rendered.
         device: where the batch lives and Warp renders: ``"cpu"`` or a CUDA device.
         pixels_only (bool): drop the task's state observations.
-        masks (bool): add ``"masks"``, uint8 [N, H, W], labels :data:`~dcs_torchrl.warp_render.MASK_LABELS`.
+        masks (bool): add ``"masks"``, uint8 [N, H, W], labels :data:`~dcs_torchrl.render.warp.MASK_LABELS`.
         render_profile (str): a key of :data:`WARP_PROFILES`.
         render_chunks (int, optional): render the batch in this many parts, each while the next
             part's physics steps (``None``: :data:`RENDER_CHUNKS`, at most one per env). The pixels
@@ -167,7 +167,7 @@ class BatchedSuiteEnv(EnvBase):
             :meth:`set_seed` seeds apart, each as a batch of its own (``None``: one group). So each
             group's envs run the episodes a batch of that group's envs alone runs.
         physics_threads (int, optional): threads the physics of a task of
-            :data:`dcs_torchrl.task_arrays.TASKS` run on (``None``: the cores this process may use);
+            :data:`dcs_torchrl.vector.task_arrays.TASKS` run on (``None``: the cores this process may use);
             other tasks step through dm_control's Python, env by env (:attr:`physics` is ``None``).
     """
 
@@ -232,7 +232,7 @@ class BatchedSuiteEnv(EnvBase):
     # ------------------------------------------------------------------ set-up
     def _batch_physics(self, threads: int | None) -> BatchPhysics | None:
         """The envs' physics stepped in MuJoCo's C and their task over arrays, where the task is one of
-        :data:`~dcs_torchrl.task_arrays.TASKS`; ``None`` (dm_control's step, env by env) otherwise."""
+        :data:`~dcs_torchrl.vector.task_arrays.TASKS`; ``None`` (dm_control's step, env by env) otherwise."""
         first = self._worlds[0].base
         arrays = task_arrays(first.env_name, first.task_name, self._worlds[0].dm.task)
         if arrays is None or any(task_arrays(w.base.env_name, w.base.task_name, w.dm.task) is not arrays

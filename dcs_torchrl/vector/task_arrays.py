@@ -1,7 +1,7 @@
 """The paper's six tasks over arrays: each control step's reward and the state observation of N envs at
 once, from the arrays of their MuJoCo data, equal to dm_control's task methods on the same states.
 
-:class:`~dcs_torchrl.batched.BatchedSuiteEnv` steps its envs' physics in MuJoCo's C (no dm_control
+:class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv` steps its envs' physics in MuJoCo's C (no dm_control
 Python per step) and records, after each control step, the :class:`TaskArrays` ``fields`` of every env's
 ``MjData`` into arrays ``[..., N, *field shape]``; ``reward`` and ``observation`` then compute over them,
 each line the line of dm_control's ``suite/<domain>.py`` it mirrors, with the same operations in the same

@@ -4,14 +4,14 @@ A dm_control ``Environment.step(action)`` runs, in Python: the task's ``before_s
 ``data.ctrl``), ``physics.step(n_sub_steps)`` (MuJoCo's "legacy" step: ``mj_step2``, ``mj_step`` for the
 other substeps, ``mj_step1``, so that the data's positions and velocities are those of the new state), the
 task's ``after_step``, ``get_reward``, ``get_observation`` and the time limit. For a task of
-:data:`dcs_torchrl.task_arrays.TASKS` this module does the same: each env's MuJoCo calls on its own data
+:data:`dcs_torchrl.vector.task_arrays.TASKS` this module does the same: each env's MuJoCo calls on its own data
 (``mj_step2`` / ``mj_step`` / ``mj_step1`` release the GIL, so the envs' physics run on every core, in
 contiguous parts of the batch, one thread each), each control step's :class:`TaskArrays` fields recorded
 into arrays, then the rewards and the last step's observation computed over all the envs at once. The
 states, rewards, observations and episode ends are dm_control's, bit for bit (``tests/test_batched.py``).
 
 The time limit is the dm_control env's own count (its episode clock, kept as ``Environment.step`` keeps
-it: :func:`dcs_torchrl._private_api.episode_clock`), so each env stays a dm_control env that
+it: :func:`dcs_torchrl._compat.private_api.episode_clock`), so each env stays a dm_control env that
 its own ``reset`` (the task's ``initialize_episode``) and ``step`` continue exactly.
 """
 from __future__ import annotations
@@ -26,8 +26,8 @@ import mujoco
 import numpy as np
 from dm_control.rl.control import PhysicsError
 
-from dcs_torchrl._private_api import episode_clock, set_episode_clock, sub_steps
-from dcs_torchrl.task_arrays import Ids, TaskArrays
+from dcs_torchrl._compat.private_api import episode_clock, set_episode_clock, sub_steps
+from dcs_torchrl.vector.task_arrays import Ids, TaskArrays
 
 __all__ = ["BatchPhysics", "RETUNE", "TRIALS", "physics_threads"]
 
@@ -49,7 +49,7 @@ class BatchPhysics:
     Args:
         dm_envs (sequence of dm_control ``Environment``): the envs, each with its own physics (the
             suite's envs of one batch), one task.
-        arrays (TaskArrays): the task over arrays (:func:`dcs_torchrl.task_arrays.task_arrays`).
+        arrays (TaskArrays): the task over arrays (:func:`dcs_torchrl.vector.task_arrays.task_arrays`).
         frame_skip (int or sequence of int): control steps per agent step (the action repeat), of all
             the envs or of each.
         threads (int, optional): threads the physics run on. ``None``: chosen by measurement among 1, 2,

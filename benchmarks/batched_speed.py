@@ -19,7 +19,10 @@ TorchRL's step and the output copies. The GL rows use Mesa's default threads.
 actions (episodes reset as they end), env-agent steps/s of today's per-env path (dm_control's
 ``Environment.step`` action-repeat times, env after env, as :class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv`
 steps a task that is not over arrays) beside :class:`~dcs_torchrl.vector.batch_physics.BatchPhysics` (MuJoCo's
-C, the task over arrays) on one thread and on every core, with the state observations computed.
+C, the task over arrays) on one thread and on every core, with the state observations computed; and
+the bound of any path that steps MuJoCo: ``mujoco.rollout`` of every env's state on every core, the
+physics alone (no task, no reward, no observation, no state carried into the env: its warmstart is
+not returned, so it is not the episodes of dm_control's step).
 """
 from __future__ import annotations
 
@@ -138,8 +141,9 @@ def main():
 class PhysicsTimed:
     """N dm_control envs of one task stepped by one path; ``run(seconds)`` returns env-agent steps/s."""
 
-    def __init__(self, domain: str, task: str, n: int, threads: int | None | bool):
-        """``threads``: ``False`` for today's per-env path, else BatchPhysics's (``None``: chosen)."""
+    def __init__(self, domain: str, task: str, n: int, threads: int | None | bool | str):
+        """``threads``: ``False`` for today's per-env path, ``"rollout"`` for the bound (mujoco.rollout),
+        else BatchPhysics's (``None``: chosen)."""
         from dm_control import suite
 
         self.envs = [suite.load(domain, task, task_kwargs={"random": i}) for i in range(n)]
@@ -149,8 +153,10 @@ class PhysicsTimed:
         spec = self.envs[0].action_spec()
         self.low, self.high = spec.minimum, spec.maximum
         self.rng = np.random.default_rng(0)
-        self.batch = None
-        if threads is not False:
+        self.batch = self.rollout = None
+        if threads == "rollout":
+            self.rollout = _Rollout(self.envs, self.k)
+        elif threads is not False:
             arrays = task_arrays(domain, task, self.envs[0].task)
             self.batch = BatchPhysics(self.envs, arrays, self.k, threads)
         self.all = np.arange(n)
@@ -159,6 +165,9 @@ class PhysicsTimed:
 
     def step(self) -> None:
         actions = self.rng.uniform(self.low, self.high, (len(self.envs), len(self.low)))
+        if self.rollout is not None:
+            self.rollout.step(actions)
+            return
         if self.batch is None:  # today's per-env path: dm_control's step, action-repeat times
             for env, action in zip(self.envs, actions):
                 for _ in range(self.k):
@@ -181,29 +190,57 @@ class PhysicsTimed:
                 return steps * len(self.envs) / elapsed
 
 
+class _Rollout:
+    """The envs' physics alone in ``mujoco.rollout``: their full states stepped action-repeat x
+    substeps on every core in C, the last state kept for the next call."""
+
+    def __init__(self, envs, k: int):
+        import mujoco
+
+        physics = envs[0].physics
+        self.model = physics.model.ptr
+        self.steps = k * round(envs[0].control_timestep() / physics.timestep())
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        self.state = np.stack([np.empty(mujoco.mj_stateSize(self.model, spec)) for _ in envs])
+        for row, env in zip(self.state, envs):
+            mujoco.mj_getState(env.physics.model.ptr, env.physics.data.ptr, row, spec)
+        self.datas = [mujoco.MjData(self.model) for _ in range(physics_threads())]
+        self.out = np.empty((len(envs), self.steps, self.state.shape[1]))
+
+    def step(self, actions: np.ndarray) -> None:
+        from mujoco import rollout
+
+        controls = np.repeat(actions[:, None], self.steps, axis=1)
+        rollout.rollout(self.model, self.datas, self.state, controls, nstep=self.steps, state=self.out,
+                        persistent_pool=True)
+        self.state[:] = self.out[:, -1]
+
+
 def physics_only(args) -> None:
     sizes = args.sizes or [64]
     cores = physics_threads()
     print(f"{cpu_model()}; {cores} cores; {args.rounds} rounds of ~{args.seconds:g} s, interleaved; median "
           "env-agent steps/s (ratio to today's per-env path); no render, random actions")
     print("| task (action repeat) | N | dm_control step, env by env | BatchPhysics, 1 thread | "
-          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) |")
-    print("|---|--:|--:|--:|--:|--:|")
+          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) | bound: mujoco.rollout, "
+          f"{cores} threads, physics alone |")
+    print("|---|--:|--:|--:|--:|--:|--:|")
     for spec in args.tasks:
         domain, task = spec.split(":")
         if (domain, task) not in TASKS:
             raise SystemExit(f"{domain}:{task} is not over arrays; choose among {[':'.join(t) for t in TASKS]}")
         for n in sizes:
             paths = {"today": PhysicsTimed(domain, task, n, False), "1": PhysicsTimed(domain, task, n, 1),
-                     "all": PhysicsTimed(domain, task, n, cores), "chosen": PhysicsTimed(domain, task, n, None)}
+                     "all": PhysicsTimed(domain, task, n, cores), "chosen": PhysicsTimed(domain, task, n, None),
+                     "bound": PhysicsTimed(domain, task, n, "rollout")}
             rates = {name: [] for name in paths}
             for _ in range(args.rounds):
                 for name, timed in paths.items():
                     rates[name].append(timed.run(args.seconds))
             base = statistics.median(rates["today"])
             cells = [f"{statistics.median(v):.0f} ({statistics.median(v) / base:.1f}x)" for v in rates.values()]
-            chosen = paths["chosen"].batch.threads
-            print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} ({chosen}) |")
+            cells[3] += f" ({paths['chosen'].batch.threads})"
+            print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} |")
 
 
 if __name__ == "__main__":

@@ -409,6 +409,52 @@ def test_the_video_fills_the_sky_and_shows_through_the_floor_at_ground_alpha():
     env.close()
 
 
+def _colour(video: int, frame: int) -> tuple[int, int, int]:
+    return 40 * video + 20, 30 * frame + 10, 200
+
+
+def test_each_world_shows_the_frame_its_own_distraction_draws_every_step():
+    """Solid-colour clips, a colour per (video, frame): at every step, across an episode's end, each
+    world's sky is the colour of the (video, frame) its distraction state says, over chunks of the batch."""
+    clips = [np.stack([np.full((8, 8, 3), _colour(v, f), np.uint8) for f in range(5)]) for v in range(3)]
+    envs = []
+    for i in range(5):
+        base = DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=100)
+        envs.append(TransformedEnv(base, Compose(BackgroundDistraction(clips, dynamic=True, texture_size=16, seed=i,
+                                                                       expose=True))))
+    env = BatchedSuiteEnv(envs, height=32, width=32, masks=True, render_chunks=2)
+    env.set_seed(3)
+    td, seen = env.reset(), set()
+    for t in range(EPISODE + 3):
+        labels, pixels = td["masks"].numpy(), td["pixels"].numpy()
+        for world, (video, frame) in enumerate(td["distractions", "background"].tolist()):
+            sky = labels[world] == MASK_LABELS["background"]
+            rails = sky & (pixels[world, ..., 2] != 200)  # the rails: static world geoms, labelled background
+            shown = pixels[world][sky & ~rails]
+            assert len(shown) > 100 and (shown == _colour(video, frame)).all(), (t, world, video, frame)
+            seen.add((video, frame))
+        td = env.step_and_maybe_reset(td.set("action", _actions(1, 5)[0]))[1]
+    env.close()
+    assert len(seen) > 5  # worlds apart and frames over time
+
+
+def test_the_frame_table_holds_each_clip_once_and_keeps_rows_as_it_grows():
+    from dcs_torchrl.vector.batched import _FrameTable
+
+    table = _FrameTable(2)
+    clips = [np.full((n, 2, 2, 3), v, np.uint8) for n, v in ((3, 10), (1, 20), (4, 30))]
+    rows = [table.row(clip, len(clip) - 1) for clip in clips]
+    assert rows == [3, 4, 8] and table.used == 9 and table.version == 3  # row 0: the blank sky before any clip
+    before = table.rows
+    assert table.row(clips[0], 0) == 1 and table.version == 3 and table.rows is before  # seen: not added again
+    for clip, last in zip(clips, rows):
+        assert (table.rows[last - len(clip) + 1:last + 1, 0] == clip).all()
+    big = np.full((len(before), 2, 2, 3), 40, np.uint8)
+    start = table.row(big, 0)
+    assert table.rows is not before and len(table.rows) >= table.used == start + len(big)
+    assert (table.rows[:len(before)][:9] == before[:9]).all() and (before[9:] == 0).all()  # the former array kept
+
+
 def test_masks_label_the_floor_and_the_agent():
     env = make_env("cheetah", "run", num_envs=1, backend="warp", masks=True, height=48, width=48, seed=0)
     labels = env.reset()["masks"][0].numpy()

@@ -110,6 +110,7 @@ class BackgroundDistraction(DistractionTransform):
 
     state_name = "background"
     seed_tag = 3
+    step_attributes = frozenset({"_video", "_frame", "_direction", "_pending", "_dirty"})
 
     def __init__(
         self,
@@ -226,6 +227,16 @@ class BackgroundDistraction(DistractionTransform):
         if self._pending is not None:
             context.upload_cube(self._sky, self._pending)
             self._pending = None
+
+    def shown_frame(self) -> tuple[np.ndarray, int] | None:
+        """What the sky shows where it is a video frame alone (``blend`` 1): ``(frames, t)``, the clip's
+        frames (uint8 ``[T, texture_size, texture_size, 3]``, the array the process's frame cache
+        shares) and the frame's index; ``None`` where the sky shows no video or a blend. A batched
+        renderer that indexes frames takes the sky so, in place of :meth:`upload_textures`."""
+        if not self.active or self._sky_faces is not None:
+            return None
+        self._pending = None
+        return self._frames, self._frame
 
     def _state(self) -> np.ndarray:
         return np.array([self._video, self._frame], dtype=np.int64)

@@ -87,12 +87,22 @@ class DistractionTransform(Transform):
 
     state_name: ClassVar[str]
     seed_tag: ClassVar[int]
+    #: The attributes a step rewrites, plain Python or NumPy values (never a tensor, parameter or
+    #: module): set straight into the instance's ``__dict__``, past ``nn.Module.__setattr__``'s
+    #: bookkeeping, which a step of every env of a batch would otherwise pay for each of them.
+    step_attributes: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, seed: int | None = None, expose: bool = False):
         self.expose = bool(expose)
         super().__init__(in_keys=[], out_keys=[("distractions", self.state_name)] if expose else [])
         self.reseed(seed)
         self.__dict__["_scene"] = None
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in self.step_attributes:
+            self.__dict__[name] = value
+        else:
+            super().__setattr__(name, value)
 
     # ----------------------------------------------------------------- wiring
     def reseed(self, seed: int | None) -> None:

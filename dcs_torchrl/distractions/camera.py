@@ -56,6 +56,7 @@ class CameraDistraction(DistractionTransform):
 
     state_name = "camera"
     seed_tag = 1
+    step_attributes = frozenset({"_pose"})
 
     def __init__(
         self,

@@ -38,6 +38,7 @@ class ColorDistraction(DistractionTransform):
 
     state_name = "color"
     seed_tag = 2
+    step_attributes = frozenset({"_rgb"})
 
     def __init__(self, scale: float, dynamic: bool = False, *, seed: int | None = None, expose: bool = False):
         self.scale = check_scale("ColorDistraction scale", scale)

@@ -97,8 +97,11 @@ def warp_device(device) -> str:
 class WorldState:
     """What the renderer reads of N worlds, as whole arrays (numpy; float32, as Warp keeps them).
 
-    ``sky`` is uint8 ``[n or 1, faces, side, side, 3]``, faces 6 (MuJoCo's cube order +X, -X, +Y,
-    -Y, +Z, -Z) or 1 (one face on all six); a leading 1 is shared by every world.
+    ``sky`` is uint8 ``[rows, faces, side, side, 3]``, faces 6 (MuJoCo's cube order +X, -X, +Y,
+    -Y, +Z, -Z) or 1 (one face on all six); world ``i`` shows row ``sky_index[i]``: a row of its
+    own, one row every world shares, or a frame of a table of video frames. Whoever changes the
+    rows' content raises ``sky_version`` (a CUDA renderer then uploads them again); the CPU renderer
+    reads ``sky`` where it lies.
     """
 
     geom_xpos: np.ndarray  # [n, ngeom, 3]
@@ -108,16 +111,19 @@ class WorldState:
     light_xpos: np.ndarray  # [n, nlight, 3]
     light_xdir: np.ndarray  # [n, nlight, 3]
     mat_rgba: np.ndarray  # [n, nmat, 4]
-    sky: np.ndarray  # [n or 1, faces, side, side, 3] uint8
+    sky: np.ndarray  # [rows, faces, side, side, 3] uint8
+    sky_index: np.ndarray  # [n] int32: the row of sky each world shows
+    sky_version: int = 0
 
     @classmethod
-    def empty(cls, model, n: int, sky_shape: tuple[int, ...]) -> "WorldState":
+    def empty(cls, model, n: int, sky: np.ndarray) -> "WorldState":
         f32 = np.float32  # as Warp keeps them
         return cls(
             geom_xpos=np.zeros((n, model.ngeom, 3), f32), geom_xmat=np.zeros((n, model.ngeom, 9), f32),
             cam_xpos=np.zeros((n, model.ncam, 3), f32), cam_xmat=np.zeros((n, model.ncam, 9), f32),
             light_xpos=np.zeros((n, model.nlight, 3), f32), light_xdir=np.zeros((n, model.nlight, 3), f32),
-            mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=np.zeros(sky_shape, np.uint8),
+            mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=sky,
+            sky_index=np.arange(n, dtype=np.int32) % len(sky),
         )
 
 
@@ -141,11 +147,11 @@ def _kernels(wp):
         return _KERNELS["finish"]
 
     @wp.func
-    def sky_texel(sky: wp.array(dtype=wp.uint8, ndim=4), world: int, face: int, x: int, y: int, c: int) -> float:
-        return float(sky[world, face * sky.shape[2] + y, x, c])
+    def sky_texel(sky: wp.array(dtype=wp.uint8, ndim=4), row: int, face: int, x: int, y: int, c: int) -> float:
+        return float(sky[row, face * sky.shape[2] + y, x, c])
 
     @wp.func
-    def sample_sky(sky: wp.array(dtype=wp.uint8, ndim=4), world: int, d: wp.vec3) -> wp.vec3:
+    def sample_sky(sky: wp.array(dtype=wp.uint8, ndim=4), row: int, d: wp.vec3) -> wp.vec3:
         # MuJoCo's cube-map frame: s = x, t = z, r = -y (render_gl3.c); faces +X, -X, +Y, -Y, +Z, -Z
         rx = d[0]
         ry = d[2]
@@ -201,11 +207,10 @@ def _kernels(wp):
         y1 = wp.min(y0 + 1, side - 1)
         fx = u - float(x0)
         fy = v - float(y0)
-        w = world % sky.shape[0]
         out = wp.vec3(0.0, 0.0, 0.0)
         for c in range(3):
-            top = (1.0 - fx) * sky_texel(sky, w, face, x0, y0, c) + fx * sky_texel(sky, w, face, x1, y0, c)
-            bottom = (1.0 - fx) * sky_texel(sky, w, face, x0, y1, c) + fx * sky_texel(sky, w, face, x1, y1, c)
+            top = (1.0 - fx) * sky_texel(sky, row, face, x0, y0, c) + fx * sky_texel(sky, row, face, x1, y0, c)
+            bottom = (1.0 - fx) * sky_texel(sky, row, face, x0, y1, c) + fx * sky_texel(sky, row, face, x1, y1, c)
             out[c] = (1.0 - fy) * top + fy * bottom
         return out
 
@@ -222,6 +227,7 @@ def _kernels(wp):
         alpha: wp.array2d(dtype=float),
         agent: wp.array(dtype=wp.uint8),
         sky: wp.array(dtype=wp.uint8, ndim=4),
+        sky_index: wp.array(dtype=wp.int32),
         width: int,
         pixels: wp.array(dtype=wp.uint8, ndim=4),
         labels: wp.array3d(dtype=wp.uint8),
@@ -243,7 +249,7 @@ def _kernels(wp):
             a = 1.0 - (1.0 - a) * (1.0 - a)
         if a < 1.0:
             d = cam_xmat[world, camera] * rays[ray_adr + pixel]
-            color = a * color + (1.0 - a) * sample_sky(sky, world, d)
+            color = a * color + (1.0 - a) * sample_sky(sky, sky_index[world], d)
         for c in range(3):
             pixels[world, y, x, c] = wp.uint8(wp.clamp(wp.round(color[c]), 0.0, 255.0))
         if want_labels != 0:
@@ -302,7 +308,8 @@ class WarpRenderer:
                     label[np.asarray(floor_geoms, bool)] = MASK_LABELS["floor"]
             self._geom_label = wp.array(label, dtype=wp.uint8)
             self._alpha = wp.zeros((self.n, mjm.ngeom), dtype=float)
-            self._sky = None
+            self._sky_index = wp.zeros(self.n, dtype=wp.int32)
+            self._sky, self._sky_source = None, None  # the sky on this device, and what it holds: (array, version)
             self._finish = _kernels(wp)
             # Build this renderer's kernels now, in the thread that makes it: MuJoCo Warp specialises
             # a kernel per render context at its first render (dcs_torchrl/_compat/private_api.py), and the
@@ -321,31 +328,46 @@ class WarpRenderer:
         self._pixels_torch = wp.to_torch(self.pixels)
         self._labels_torch = wp.to_torch(self.labels)
 
-    def state(self, sky_shape: tuple[int, ...]) -> WorldState:
-        """A :class:`WorldState` to fill for :meth:`render` (its ``sky`` of ``sky_shape``). On the CPU its
-        arrays are this renderer's own (float32, as Warp keeps them): a render then copies nothing in."""
-        wp, d, m = self._wp, self.data, self.model
-        n_sky, faces, side = sky_shape[:3]
-        with wp.ScopedDevice(self.device):
-            self._sky = wp.zeros((n_sky, faces * side, side, 3), dtype=wp.uint8)  # faces stacked, as in MuJoCo
+    def state(self, sky: np.ndarray) -> WorldState:
+        """A :class:`WorldState` to fill for :meth:`render`, showing ``sky`` (uint8 ``[rows, faces, side,
+        side, 3]``, the caller's; world ``i`` row ``i % rows`` until its ``sky_index`` says otherwise). On
+        the CPU its poses are this renderer's own arrays (float32, as Warp keeps them) and ``sky`` is read
+        where it lies: a render then copies nothing in."""
+        d, m, n = self.data, self.model, self.n
         if self.device != "cpu":
-            state = WorldState.empty(self._mjm, self.n, sky_shape)
+            state = WorldState.empty(self._mjm, n, sky)
         else:
-            n = self.n
             state = WorldState(
                 geom_xpos=d.geom_xpos.numpy(), geom_xmat=d.geom_xmat.numpy().reshape(n, -1, 9),
                 cam_xpos=d.cam_xpos.numpy(), cam_xmat=d.cam_xmat.numpy().reshape(n, -1, 9),
                 light_xpos=d.light_xpos.numpy(), light_xdir=d.light_xdir.numpy(), mat_rgba=m.mat_rgba.numpy(),
-                sky=self._sky.numpy().reshape(sky_shape),
+                sky=sky, sky_index=self._sky_index.numpy(),
             )
+            state.sky_index[:] = np.arange(n, dtype=np.int32) % len(sky)
         self._own = state
         return state
+
+    def _put_sky(self, state: WorldState) -> None:
+        """``state.sky`` as the kernel reads it (faces stacked, as in MuJoCo): on the CPU the array itself;
+        on a CUDA device a copy, made again when the array or its ``sky_version`` changes."""
+        source = (state.sky, state.sky_version)
+        if self._sky_source is not None and source[0] is self._sky_source[0] and source[1] == self._sky_source[1]:
+            return
+        rows, faces, side = state.sky.shape[:3]
+        strip = np.ascontiguousarray(state.sky).reshape(rows, faces * side, side, 3)
+        if self.device == "cpu":
+            self._sky = self._wp.array(strip, dtype=self._wp.uint8, device="cpu", copy=False)
+        else:
+            if self._sky is None or tuple(self._sky.shape) != strip.shape:
+                self._sky = self._wp.zeros(strip.shape, dtype=self._wp.uint8)
+            self._put(self._sky, strip, self._wp.uint8)
+        self._sky_source = source
 
     def _put(self, target, values: np.ndarray, dtype) -> None:
         """Copies ``values`` (host) into the Warp array ``target`` (same shape)."""
         wp = self._wp
-        source = wp.array(np.ascontiguousarray(values, dtype=np.float32 if dtype is not wp.uint8 else np.uint8),
-                          dtype=dtype, device="cpu", copy=False)
+        host = {wp.uint8: np.uint8, wp.int32: np.int32}.get(dtype, np.float32)
+        source = wp.array(np.ascontiguousarray(values, dtype=host), dtype=dtype, device="cpu", copy=False)
         wp.copy(target, source)
 
     def render(self, state: WorldState) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -366,11 +388,8 @@ class WarpRenderer:
                     self._put(d.light_xpos, state.light_xpos, wp.vec3)
                     self._put(d.light_xdir, state.light_xdir, wp.vec3)
                 self._put(m.mat_rgba, state.mat_rgba, wp.vec4)
-                n_sky, faces, side = state.sky.shape[:3]
-                strip = state.sky.reshape(n_sky, faces * side, side, 3)
-                if self._sky is None or tuple(self._sky.shape) != strip.shape:
-                    self._sky = wp.zeros(strip.shape, dtype=wp.uint8)
-                self._put(self._sky, strip, wp.uint8)
+                self._put(self._sky_index, state.sky_index, wp.int32)
+            self._put_sky(state)
             alpha = np.where(self._uses_material[None], state.mat_rgba[:, self._geom_matid.clip(0), 3],
                              self._geom_rgba[None, :, 3])
             self._put(self._alpha, alpha, float)
@@ -379,7 +398,8 @@ class WarpRenderer:
             wp.launch(
                 self._finish, dim=(n, self.height * self.width),
                 inputs=[rc.rgb_data, self._offsets.rgb, rc.seg_data, self._offsets.seg, rc.ray, self._offsets.ray,
-                        d.cam_xmat, self.camera_id, self._alpha, self._geom_label, self._sky, self.width, self.pixels,
+                        d.cam_xmat, self.camera_id, self._alpha, self._geom_label, self._sky, self._sky_index,
+                        self.width, self.pixels,
                         self.labels, int(self.want_labels)],
             )
             if self.device != "cpu":

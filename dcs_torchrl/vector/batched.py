@@ -121,6 +121,38 @@ class _SkySink:
             row[...] = face
 
 
+class _FrameTable:
+    """The video frames a batch's worlds show, each clip once, as rows of one array: a world whose sky is
+    a frame alone (:meth:`~dcs_torchrl.BackgroundDistraction.shown_frame`) shows a row of it, so that a
+    step copies each world's row number instead of its frame (and a CUDA renderer uploads each clip
+    once). Clips are added as worlds first show them; the array grows by doubling into a new one, so a
+    render still reading the former sees the rows it indexes unchanged."""
+
+    def __init__(self, side: int):
+        self.rows = np.zeros((1, 1, side, side, 3), np.uint8)  # one blank row: a sky to index before any clip
+        self.used = 1
+        self.version = 0  #: raised whenever rows are added (a renderer that copies them copies again)
+        self._offsets: dict[int, tuple[int, np.ndarray]] = {}  # id(clip) -> (first row, the clip, kept alive)
+
+    def row(self, clip: np.ndarray, frame: int) -> int:
+        """The row of frame ``frame`` of ``clip`` (uint8 ``[T, side, side, 3]``, added on first sight)."""
+        entry = self._offsets.get(id(clip))
+        if entry is None or entry[1] is not clip:
+            entry = self._offsets[id(clip)] = (self._add(clip), clip)
+        return entry[0] + frame
+
+    def _add(self, clip: np.ndarray) -> int:
+        start, end = self.used, self.used + len(clip)
+        if end > len(self.rows):
+            grown = np.zeros((max(end, 2 * len(self.rows)), *self.rows.shape[1:]), np.uint8)
+            grown[:start] = self.rows[:start]
+            self.rows = grown
+        self.rows[start:end, 0] = clip
+        self.used = end
+        self.version += 1
+        return start
+
+
 class _World:
     """One env of the batch: its TorchRL env (physics, task, distractions) and the arrays it fills."""
 
@@ -201,19 +233,19 @@ class BatchedSuiteEnv(EnvBase):
         self.renderers = [WarpRenderer(model, len(chunk), height, width, camera_id, device,
                                        agent_geoms=agent if masks else None, floor_geoms=floor,
                                        **WARP_PROFILES[render_profile]) for chunk in self._chunks]
-        if videos is not None:  # each world's own sky, as its distraction writes it
-            sky = lambda k: (k, *videos)  # noqa: E731
-        else:  # every world shows the model's sky
-            clean = self._clean_sky(model, height, camera_id)
-            sky = lambda k: (1, *clean.shape)  # noqa: E731
-        self._scenes = [renderer.state(sky(len(chunk))) for renderer, chunk in zip(self.renderers, self._chunks)]
-        self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
-        if videos is not None:
-            self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where]
+        # the skies: a table of the video frames shown (a frame alone), each world's own row (a frame
+        # blended onto the model's sky, written by its distraction), or the model's sky shared by all
+        self._table = _FrameTable(videos[1]) if videos is not None and videos[0] == 1 else None
+        if self._table is not None:
+            skies = [self._table.rows for _ in self._chunks]
+        elif videos is not None:
+            skies = [np.zeros((len(chunk), *videos), np.uint8) for chunk in self._chunks]
         else:
-            self._sinks = None
-            for scene in self._scenes:
-                scene.sky[0] = clean
+            skies = [self._clean_sky(model, height, camera_id)[None]] * len(self._chunks)
+        self._scenes = [renderer.state(sky) for renderer, sky in zip(self.renderers, skies)]
+        self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
+        rows = videos is not None and self._table is None
+        self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where] if rows else None
         self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
         self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
         self._pool = ThreadPoolExecutor(RENDER_THREADS, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
@@ -303,8 +335,13 @@ class BatchedSuiteEnv(EnvBase):
         scene.light_xpos[row] = data.light_xpos
         scene.light_xdir[row] = data.light_xdir
         scene.mat_rgba[row] = model.mat_rgba
-        if self._sinks is not None:
+        if self._table is not None:
+            scene.sky_index[row] = self._table.row(*world.background.shown_frame())
+            if scene.sky is not self._table.rows or scene.sky_version != self._table.version:
+                scene.sky, scene.sky_version = self._table.rows, self._table.version
+        elif self._sinks is not None:
             world.background.upload_textures(self._sinks[index])
+            scene.sky_version += 1
 
     def _render_chunk(self, chunk: int) -> None:
         """Renders chunk ``chunk`` into this env's pixel (and label) buffers: now, or in the render

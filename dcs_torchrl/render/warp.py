@@ -21,10 +21,12 @@ What differs from GL (no reflections, no multisampling, no mipmaps) is measured 
 is imported on first use.
 """
 # no "from __future__ import annotations": Warp reads its kernels' annotations as objects
+import contextlib
 import os
 import re
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -91,6 +93,46 @@ def warp_device(device) -> str:
     if device.type == "cuda":
         return f"cuda:{0 if device.index is None else device.index}"
     raise ValueError(f'backend="warp" renders on "cpu" or a CUDA device, got {device}.')
+
+
+class _DefaultDevice:
+    """Warp's default device for blocks that run in several threads at once.
+
+    MuJoCo Warp launches its kernels on Warp's default device, of which a process has one (not one
+    a thread), and ``wp.ScopedDevice`` restores on exit the device it found on entry: two threads
+    rendering at once (a batch's render threads) then restore it under each other, and on a machine
+    with a GPU a CPU renderer's kernel goes to CUDA with host arrays (an illegal memory access).
+    Here the blocks of one device run together, counted; the device found before the first is
+    restored when the last leaves; a block for another device waits until then."""
+
+    def __init__(self):
+        self._changed = threading.Condition()
+        self._device, self._count, self._saved = None, 0, None
+
+    @contextlib.contextmanager
+    def scope(self, device):
+        """A block in which ``device`` (a Warp device) is the default, and, for CUDA, its context current."""
+        runtime = device.runtime
+        with self._changed:
+            while self._count and self._device is not device:
+                self._changed.wait()
+            if not self._count:
+                self._device, self._saved = device, runtime.default_device
+                runtime.default_device = device
+            self._count += 1
+        try:
+            with device.context_guard if device.is_cuda else contextlib.nullcontext():  # a CUDA context per thread
+                yield device
+        finally:
+            with self._changed:
+                self._count -= 1
+                if not self._count:
+                    runtime.default_device, self._device = self._saved, None
+                    self._changed.notify_all()
+
+
+#: The one :class:`_DefaultDevice` of the process: every Warp block of this package goes through it.
+DEFAULT_DEVICE = _DefaultDevice()
 
 
 @dataclass
@@ -289,7 +331,7 @@ class WarpRenderer:
             raise ValueError(f'backend="warp" renders a model camera: camera_id={camera_id} is not in [0, {model.ncam}).')
         self.torch_device = torch.device(self.device)
         mjm = model.ptr if hasattr(model, "ptr") else model
-        with wp.ScopedDevice(self.device):
+        with DEFAULT_DEVICE.scope(wp.get_device(self.device)):
             self.model = mjw.put_model(mjm, batch_sizes={"mat_rgba": self.n})
             self.data = mjw.make_data(mjm, nworld=self.n, nconmax=1, njmax=1)
             self.context = mjw.create_render_context(
@@ -359,7 +401,7 @@ class WarpRenderer:
             self._sky = self._wp.array(strip, dtype=self._wp.uint8, device="cpu", copy=False)
         else:
             if self._sky is None or tuple(self._sky.shape) != strip.shape:
-                self._sky = self._wp.zeros(strip.shape, dtype=self._wp.uint8)
+                self._sky = self._wp.zeros(strip.shape, dtype=self._wp.uint8, device=self.device)
             self._put(self._sky, strip, self._wp.uint8)
         self._sky_source = source
 
@@ -378,7 +420,7 @@ class WarpRenderer:
         wp, mjw, d, m, rc = self._wp, self._mjw, self.data, self.model, self.context
         n = self.n
         start = time.perf_counter()
-        with wp.ScopedDevice(self.device):
+        with DEFAULT_DEVICE.scope(wp.get_device(self.device)):
             if state is not self._own or self.device != "cpu":  # else the arrays are Warp's already
                 self._put(d.geom_xpos, state.geom_xpos, wp.vec3)
                 self._put(d.geom_xmat, state.geom_xmat.reshape(n, -1, 3, 3), wp.mat33)

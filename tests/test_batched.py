@@ -413,7 +413,8 @@ def _colour(video: int, frame: int) -> tuple[int, int, int]:
     return 40 * video + 20, 30 * frame + 10, 200
 
 
-def test_each_world_shows_the_frame_its_own_distraction_draws_every_step():
+@pytest.mark.parametrize("sky_table", [True, False], ids=["frame-table", "rows"])
+def test_each_world_shows_the_frame_its_own_distraction_draws_every_step(sky_table):
     """Solid-colour clips, a colour per (video, frame): at every step, across an episode's end, each
     world's sky is the colour of the (video, frame) its distraction state says, over chunks of the batch."""
     clips = [np.stack([np.full((8, 8, 3), _colour(v, f), np.uint8) for f in range(5)]) for v in range(3)]
@@ -422,7 +423,8 @@ def test_each_world_shows_the_frame_its_own_distraction_draws_every_step():
         base = DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=100)
         envs.append(TransformedEnv(base, Compose(BackgroundDistraction(clips, dynamic=True, texture_size=16, seed=i,
                                                                        expose=True))))
-    env = BatchedSuiteEnv(envs, height=32, width=32, masks=True, render_chunks=2)
+    env = BatchedSuiteEnv(envs, height=32, width=32, masks=True, render_chunks=2, sky_table=sky_table)
+    assert (env._table is not None) == sky_table
     env.set_seed(3)
     td, seen = env.reset(), set()
     for t in range(EPISODE + 3):
@@ -436,6 +438,25 @@ def test_each_world_shows_the_frame_its_own_distraction_draws_every_step():
         td = env.step_and_maybe_reset(td.set("action", _actions(1, 5)[0]))[1]
     env.close()
     assert len(seen) > 5  # worlds apart and frames over time
+
+
+@pytest.mark.parametrize("extra", [{}, {"background_blend": 0.5}], ids=["frames-alone", "blended"])
+def test_the_frame_table_and_each_worlds_rows_give_the_same_pixels(extra):
+    from dcs_torchrl.envs import _distracted_env, resolve_settings
+
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True, action_repeat=100, **extra)
+    frames = []
+    for sky_table in (True, False):
+        env = BatchedSuiteEnv([_distracted_env(settings, False) for _ in range(5)], height=24, width=24,
+                              render_chunks=3, sky_table=sky_table)
+        env.set_seed(0)
+        td, run = env.reset(), []
+        for action in _actions(EPISODE + 2, 5):  # across an episode's end: new clips drawn
+            out, td = env.step_and_maybe_reset(td.set("action", action))
+            run.append(out["next", "pixels"])
+        frames.append(torch.stack(run))
+        env.close()
+    assert torch.equal(frames[0], frames[1])
 
 
 def test_the_frame_table_holds_each_clip_once_and_keeps_rows_as_it_grows():
@@ -518,6 +539,10 @@ def test_render_chunks_give_the_same_pixels():
 
 
 def test_bad_settings_are_refused_with_the_fix():
+    from dcs_torchrl.envs import _distracted_env, resolve_settings
+
+    with pytest.raises(ValueError, match="sky_table must be True, False or None"):
+        BatchedSuiteEnv([_distracted_env(resolve_settings("cartpole", "swingup"), False)], sky_table="yes")
     with pytest.raises(ValueError, match="pass num_envs=N"):
         make_env("cartpole", "swingup", backend="warp")
     with pytest.raises(ValueError, match="masks=True needs backend='warp'"):

@@ -201,13 +201,20 @@ class BatchedSuiteEnv(EnvBase):
         physics_threads (int, optional): threads the physics of a task of
             :data:`dcs_torchrl.vector.task_arrays.TASKS` run on (``None``: the cores this process may use);
             other tasks step through dm_control's Python, env by env (:attr:`physics` is ``None``).
+        sky_table (bool, optional): where the worlds' video frames (shown alone, ``background_blend``
+            1) are read from: a table holding each clip once, each world a row number (``True``: a
+            step copies no frame, a CUDA device receives each clip once), or each world's own row,
+            its frame copied in at each step (``False``: no second copy of the clips in memory).
+            ``None``: the table on a CUDA device, the rows on the CPU. The pixels are the same.
     """
 
     def __init__(self, envs: Sequence[TransformedEnv], *, height: int = 84, width: int = 84, camera_id: int = 0,
                  device="cpu", pixels_only: bool = True, masks: bool = False, render_profile: str = "default",
                  render_chunks: int | None = None, groups: Sequence[int] | None = None,
-                 physics_threads: int | None = None):
+                 physics_threads: int | None = None, sky_table: bool | None = None):
         check_profile(render_profile)
+        if sky_table is not None and not isinstance(sky_table, bool):
+            raise ValueError(f"sky_table must be True, False or None (the table on CUDA, rows on the CPU), got {sky_table!r}.")
         envs = list(envs)
         if not envs:
             raise ValueError("BatchedSuiteEnv needs at least one env (num_envs >= 1).")
@@ -235,7 +242,9 @@ class BatchedSuiteEnv(EnvBase):
                                        **WARP_PROFILES[render_profile]) for chunk in self._chunks]
         # the skies: a table of the video frames shown (a frame alone), each world's own row (a frame
         # blended onto the model's sky, written by its distraction), or the model's sky shared by all
-        self._table = _FrameTable(videos[1]) if videos is not None and videos[0] == 1 else None
+        if sky_table is None:
+            sky_table = device.type == "cuda"
+        self._table = _FrameTable(videos[1]) if sky_table and videos is not None and videos[0] == 1 else None
         if self._table is not None:
             skies = [self._table.rows for _ in self._chunks]
         elif videos is not None:

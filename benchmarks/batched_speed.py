@@ -40,9 +40,9 @@ import torch  # noqa: E402
 from machine import cpu_model  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
+from dcs_torchrl.presets import action_repeat  # noqa: E402
 from dcs_torchrl.vector.batch_physics import BatchPhysics, physics_threads  # noqa: E402
 from dcs_torchrl.vector.batched import BatchedSuiteEnv  # noqa: E402
-from dcs_torchrl.presets import action_repeat  # noqa: E402
 from dcs_torchrl.vector.task_arrays import TASKS, task_arrays  # noqa: E402
 
 PRESETS = {"none": dict(benchmark="none"), "medium": dict(benchmark="medium", dynamic=True)}

@@ -31,9 +31,9 @@ import torch  # noqa: E402
 from env_speed import interleaved_rounds, time_steps  # noqa: E402  (benchmarks/ is the script's directory)
 
 import dcs_torchrl as dcs  # noqa: E402
-from dcs_torchrl.render import gl as render  # noqa: E402
 from dcs_torchrl._scene import locate  # noqa: E402
 from dcs_torchrl.distractions.base import DistractionTransform  # noqa: E402
+from dcs_torchrl.render import gl as render  # noqa: E402
 
 OFF = dict(camera_scale=0.0, color_scale=0.0, num_videos=0)
 WHOLE_SKY = "medium dynamic, whole sky"

@@ -47,8 +47,8 @@ import torch  # noqa: E402
 from torchrl.envs import ParallelEnv  # noqa: E402
 
 import dcs_torchrl as dcs  # noqa: E402
-from dcs_torchrl.vector import parallel  # noqa: E402
 from dcs_torchrl.render.egl_devices import spawn_environment  # noqa: E402
+from dcs_torchrl.vector import parallel  # noqa: E402
 from machine import cpu_model  # noqa: E402
 
 

@@ -22,9 +22,9 @@ from dcs_torchrl.distractions import (  # noqa: E402
     DistractionTransform,
 )
 from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings  # noqa: E402
-from dcs_torchrl.vector.parallel import ParallelSuiteEnv  # noqa: E402
 from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
 from dcs_torchrl.render.gl import RenderPixels  # noqa: E402
+from dcs_torchrl.vector.parallel import ParallelSuiteEnv  # noqa: E402
 
 __all__ = [
     "BENCHMARKS",

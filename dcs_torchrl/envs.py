@@ -292,8 +292,8 @@ def _check_options(o: EnvOptions) -> None:
 
 def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
     """The :class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
-    from dcs_torchrl.vector.batched import BatchedSuiteEnv, compact_skies
     from dcs_torchrl.render.warp import import_warp
+    from dcs_torchrl.vector.batched import BatchedSuiteEnv, compact_skies
 
     import_warp()  # the extra's error first
     expose = bool(o.expose_distractions)

@@ -306,9 +306,9 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
     """
-    from dcs_torchrl.render.egl_devices import render_device_indices
     from dcs_torchrl.evaluation.scheduling import evaluate_settings
     from dcs_torchrl.pretrained import agent_directory, agent_results
+    from dcs_torchrl.render.egl_devices import render_device_indices
 
     directory = agent_directory(agent)
     results = agent_results(directory)

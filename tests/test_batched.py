@@ -12,8 +12,8 @@ from torchrl.envs.utils import check_env_specs
 
 import dcs_torchrl as dcs
 from dcs_torchrl import BackgroundDistraction, make_env
-from dcs_torchrl.vector.batched import BatchedSuiteEnv, _chunks
 from dcs_torchrl.render.warp import MASK_LABELS
+from dcs_torchrl.vector.batched import BatchedSuiteEnv, _chunks
 
 pytest.importorskip("mujoco_warp")
 
@@ -553,8 +553,8 @@ def test_bad_settings_are_refused_with_the_fix():
         make_env("cartpole", "swingup", backend="warp", num_envs=0)
     with pytest.raises(ValueError, match="camera_id=-1"):
         make_env("cartpole", "swingup", backend="warp", num_envs=1, camera_id=-1)
-    from dcs_torchrl.vector.batched import WARP_PROFILES
     from dcs_torchrl.render.gl import PROFILES
+    from dcs_torchrl.vector.batched import WARP_PROFILES
 
     assert set(WARP_PROFILES) == set(PROFILES)  # one name of each profile, checked once (render.check_profile)
     with pytest.raises(ValueError, match="unknown render_profile"):

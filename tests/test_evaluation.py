@@ -9,8 +9,8 @@ from tensordict.nn import TensorDictSequential
 from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, ParallelEnv, SerialEnv, TransformedEnv
 
 from dcs_torchrl import ParallelSuiteEnv
-from dcs_torchrl.modules import make_encoder, make_sac_actor
 from dcs_torchrl.evaluation.protocol import EvalResult, evaluate, evaluate_in_processes
+from dcs_torchrl.modules import make_encoder, make_sac_actor
 
 # cartpole's 1000-step time limit at action repeat 100: episodes of 10 steps, where what these tests check
 # (which env runs which episode, whose rewards make which return) holds for episodes of any length

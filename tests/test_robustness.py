@@ -50,8 +50,8 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
     pretending to render on 1: a process that did not get its pool's variable fails its start.
     (One sweep for both checks: each spawned process costs seconds.)"""
     from dcs_torchrl.render import egl_devices
-    from dcs_torchrl.vector import process_pool
     from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE
+    from dcs_torchrl.vector import process_pool
 
     points = [Point("camera", 0.3, True), Point("background", 0.5, True, reference_blend=True), Point("color", 0.0, False)]
     agent = load_pretrained(short_agent)

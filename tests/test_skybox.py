@@ -8,8 +8,8 @@ from dm_control import suite
 from dm_control.mujoco import engine
 from scipy.spatial.transform import Rotation
 
-from dcs_torchrl.render.skybox import FULL, camera_regions, face_margin, visible_regions
 from dcs_torchrl.render.gl import render_context
+from dcs_torchrl.render.skybox import FULL, camera_regions, face_margin, visible_regions
 
 # GL face order +X, -X, +Y, -Y, +Z, -Z shows these world directions under MuJoCo's skybox mapping
 FACE_WORLD_DIRECTION = [(1, 0, 0), (-1, 0, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (0, 1, 0)]

@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 
 from dcs_torchrl._scene import Scene, originals
-from dcs_torchrl.render.skybox import cube_faces, skybox_texture
 from dcs_torchrl.distractions.base import DistractionTransform, check_scale
+from dcs_torchrl.render.skybox import cube_faces, skybox_texture
 from dcs_torchrl.videos import ArraySource, VideoSource, open_source
 
 

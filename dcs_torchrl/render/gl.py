@@ -37,9 +37,9 @@ from torchrl.data import Bounded, Composite
 from torchrl.envs import Transform
 
 from dcs_torchrl import presets
-from dcs_torchrl.render import skybox
 from dcs_torchrl._compat.private_api import free_foreign_render_contexts
 from dcs_torchrl._scene import Scene, locate
+from dcs_torchrl.render import skybox
 
 
 @dataclass(frozen=True)

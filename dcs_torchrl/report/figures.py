@@ -24,10 +24,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.curves import ALL_TASKS, BLEND_2021, curve_tasks, with_defaults
 from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
 from dcs_torchrl.report.markdown import fmt_value
-from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.paper import MEAN_DOMAIN
 from dcs_torchrl.report.tables import is_paper_task_set, setting_name, task_columns, tasks_text
 

@@ -26,8 +26,8 @@ from dcs_torchrl.report.markdown import MISSING, fmt_ratio, fmt_value, md_table
 from dcs_torchrl.report.missing import no_runs_text
 from dcs_torchrl.report.paper import paper_interactions
 from dcs_torchrl.report.select import first_source, tasks_of
-from dcs_torchrl.report.tables import setting_name
 from dcs_torchrl.report.stats import task_mean
+from dcs_torchrl.report.tables import setting_name
 
 __all__ = ["SINGLE_SOURCES", "BENCHMARK_SOURCES", "INPUTS", "INTERACTION_COLUMNS", "interactions_table",
            "interactions_missing", "interactions_markdown", "compare"]

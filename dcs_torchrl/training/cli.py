@@ -14,8 +14,8 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from dcs_torchrl.modules import retain_freed_memory
 from dcs_torchrl.methods import agent_class
+from dcs_torchrl.modules import retain_freed_memory
 from dcs_torchrl.training import conf as _conf  # noqa: F401  (importing it registers the env / eval_env groups)
 from dcs_torchrl.training.loop import train
 

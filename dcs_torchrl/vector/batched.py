@@ -34,14 +34,14 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
-from dcs_torchrl.vector._batching import chain_seeds, marked
 from dcs_torchrl._scene import locate
-from dcs_torchrl.vector.batch_physics import BatchPhysics
 from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
 from dcs_torchrl.render.gl import check_profile
-from dcs_torchrl.vector.task_arrays import task_arrays
 from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer, skybox_faces
+from dcs_torchrl.vector._batching import chain_seeds, marked
+from dcs_torchrl.vector.batch_physics import BatchPhysics
+from dcs_torchrl.vector.task_arrays import task_arrays
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
 

@@ -35,10 +35,10 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
-from dcs_torchrl.vector._batching import chain_seeds, marked
-from dcs_torchrl.vector._threads import torch_threads
 from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.render.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
+from dcs_torchrl.vector._batching import chain_seeds, marked
+from dcs_torchrl.vector._threads import torch_threads
 
 __all__ = ["ParallelSuiteEnv"]
 

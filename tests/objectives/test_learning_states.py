@@ -19,8 +19,8 @@ from torchrl.data import LazyTensorStorage, ReplayBuffer
 from torchrl.envs import CatTensors, Compose, DMControlEnv, DoubleToFloat, TransformedEnv
 from torchrl.objectives import SoftUpdate
 
-from dcs_torchrl.modules import ObservationNoise, augmentation_copies, make_critic, make_encoder, make_sac_actor, with_next_keys
 from dcs_torchrl.evaluation.protocol import EvalResult, evaluate
+from dcs_torchrl.modules import ObservationNoise, augmentation_copies, make_critic, make_encoder, make_sac_actor, with_next_keys
 from dcs_torchrl.objectives import CEMActor, DrQSACLoss, QTOptLoss
 
 ACTION_REPEAT = 8  # PlaNet benchmark setting for cartpole swingup (the paper's Table 1)

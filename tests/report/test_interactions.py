@@ -5,9 +5,9 @@ import pytest
 from synthetic_results import write_run
 
 from dcs_torchrl.report.interactions import interactions_markdown, interactions_missing, interactions_table
-from dcs_torchrl.report.tables import setting_name
 from dcs_torchrl.report.load import load_results
 from dcs_torchrl.report.paper import paper_interactions
+from dcs_torchrl.report.tables import setting_name
 
 TASKS = [("cartpole", "swingup"), ("cheetah", "run")]
 # Scores per task (the same for seeds 0 and 1): mean over tasks 800 without distraction.

@@ -227,8 +227,8 @@ def test_each_visible_gpu_has_the_egl_device_the_recipes_render_on():
     """With NVIDIA's EGL driver every visible CUDA device is one EGL device (``EGL_NV_device_cuda``),
     ``execution.render_device=auto`` picks the policy's, and an env told to render there gives
     the frames an env rendering on this process's device gives (the same GPU model, the same driver)."""
-    from dcs_torchrl.render.egl_devices import egl_device_of_cuda, egl_devices
     from dcs_torchrl.envs import resolve_settings
+    from dcs_torchrl.render.egl_devices import egl_device_of_cuda, egl_devices
     from dcs_torchrl.training.envs import batched_pixel_env, render_device
 
     devices = egl_devices()

@@ -9,15 +9,15 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 from torchrl.envs import DMControlEnv, SerialEnv
 
-import dcs_torchrl.training.envs as training_envs
-from dcs_torchrl.vector import parallel
 from dcs_torchrl.envs import resolve_settings
+from dcs_torchrl.evaluation.protocol import evaluate
 from dcs_torchrl.methods import agent_class
 from dcs_torchrl.training import RunDirectory
-from dcs_torchrl.training.envs import batched_pixel_env, close_env
-from dcs_torchrl.evaluation.protocol import evaluate
 from dcs_torchrl.training import loop
+import dcs_torchrl.training.envs as training_envs
+from dcs_torchrl.training.envs import batched_pixel_env, close_env
 from dcs_torchrl.training.loop import Workspace
+from dcs_torchrl.vector import parallel
 from dcs_test_utils import distraction_streams, shared_streams
 
 

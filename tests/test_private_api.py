@@ -40,7 +40,7 @@ CAMERAS = ((8, 6), (12, 10))
 @pytest.fixture(scope="module")
 def warp_context():
     """A MuJoCo Warp render context of two worlds of cartpole, both cameras, each kernel once:
-    ``(context, its kernel before the first render, after it, after a second)``."""
+    ``(context, its kernel before the first render, after it, after a second, Warp's CPU device)``."""
     from dcs_torchrl.render.warp import import_warp
 
     wp, mjw = import_warp("cpu")
@@ -56,7 +56,7 @@ def warp_context():
             mjw.refit_bvh(model, data, context)
             mjw.render(model, data, context)
             kernels.append(context._megakernel)
-    return context, kernels
+    return context, kernels, wp.get_device("cpu")
 
 
 @pytest.fixture(scope="module")
@@ -78,6 +78,8 @@ def live_objects(warp_context):
         "torchrl.objectives.SACLoss": loss,
         "mujoco_warp.RenderContext": warp_context[0],
         "dm_control.rl.control.Environment": env.base_env._env,
+        "warp.Device": warp_context[2],
+        "warp._src.context.Runtime": warp_context[2].runtime,
     }
     yield objects
     env.close()

@@ -74,6 +74,12 @@ dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.vector.batch_ph
                                                and keeps it there; a renderer renders once when
                                                made, so that renderers made in one thread and
                                                rendering in several never build it at once.
+Warp's ``Device.runtime``, ``.context_guard``  :mod:`dcs_torchrl.render.warp`: MuJoCo Warp
+and ``Runtime.default_device``                 launches on the process's one default device,
+                                               which ``wp.ScopedDevice`` sets and puts back per
+                                               block; render threads overlapping would put it
+                                               back under each other, so one counted scope
+                                               (``DEFAULT_DEVICE``) sets it as ScopedDevice does.
 =============================================  ==============================================
 """
 from __future__ import annotations
@@ -114,7 +120,9 @@ PRIVATE_SYMBOLS = (
     ("torchrl._utils", "seed_generator", "dcs_torchrl.datasets.metadata"),
 ) + tuple(("dm_control.rl.control.Environment", field, "dcs_torchrl.vector.batch_physics")
           for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.render.warp")
-          for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel"))
+          for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel")) + (
+    ("warp.Device", "runtime", "dcs_torchrl.render.warp"), ("warp.Device", "context_guard", "dcs_torchrl.render.warp"),
+    ("warp._src.context.Runtime", "default_device", "dcs_torchrl.render.warp"))
 
 
 def episode_clock(dm_env) -> tuple[int, float, bool]:

@@ -15,29 +15,49 @@ from dcs_torchrl._compat import judged_warnings  # noqa: E402
 
 judged_warnings.install()  # only the dependency warnings judged harmless (see the module)
 
-from dcs_torchrl.distractions import (  # noqa: E402
-    BackgroundDistraction,
-    CameraDistraction,
-    ColorDistraction,
-    DistractionTransform,
-)
-from dcs_torchrl.envs import EnvOptions, EnvSettings, make_env, make_grouped_env, resolve_settings  # noqa: E402
-from dcs_torchrl.presets import BENCHMARKS, TASKS  # noqa: E402
-from dcs_torchrl.render.gl import RenderPixels  # noqa: E402
-from dcs_torchrl.vector.parallel import ParallelSuiteEnv  # noqa: E402
+import importlib  # noqa: E402
+import importlib.util  # noqa: E402
+import sys  # noqa: E402
 
-__all__ = [
-    "BENCHMARKS",
-    "BackgroundDistraction",
-    "EnvOptions",
-    "EnvSettings",
-    "make_env",
-    "make_grouped_env",
-    "ParallelSuiteEnv",
-    "resolve_settings",
-    "TASKS",
-    "CameraDistraction",
-    "ColorDistraction",
-    "DistractionTransform",
-    "RenderPixels",
-]
+#: The public names and the module each lives in, imported when first used: ``import dcs_torchrl``
+#: itself loads neither torch nor TorchRL, so that what needs neither (the methods' registry, the
+#: experiments' launcher deciding a run is finished, the report) starts at once.
+_PUBLIC = {
+    "BENCHMARKS": "dcs_torchrl.presets",
+    "TASKS": "dcs_torchrl.presets",
+    "BackgroundDistraction": "dcs_torchrl.distractions",
+    "CameraDistraction": "dcs_torchrl.distractions",
+    "ColorDistraction": "dcs_torchrl.distractions",
+    "DistractionTransform": "dcs_torchrl.distractions",
+    "EnvOptions": "dcs_torchrl.envs",
+    "EnvSettings": "dcs_torchrl.envs",
+    "make_env": "dcs_torchrl.envs",
+    "make_grouped_env": "dcs_torchrl.envs",
+    "resolve_settings": "dcs_torchrl.envs",
+    "ParallelSuiteEnv": "dcs_torchrl.vector.parallel",
+    "RenderPixels": "dcs_torchrl.render.gl",
+}
+
+
+def lazy_exports(package: str, public: dict[str, str]):
+    """A package's ``__getattr__`` and ``__dir__`` (PEP 562): each of ``public``'s names imported from
+    its module on first use, and the package's submodules on first access."""
+
+    def __getattr__(name: str):
+        if name in public:
+            value = getattr(importlib.import_module(public[name]), name)
+        elif importlib.util.find_spec(f"{package}.{name}") is not None:
+            value = importlib.import_module(f"{package}.{name}")
+        else:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        setattr(sys.modules[package], name, value)
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(vars(sys.modules[package])) | set(public))
+
+    return __getattr__, __dir__
+
+
+__getattr__, __dir__ = lazy_exports(__name__, _PUBLIC)
+__all__ = list(_PUBLIC)

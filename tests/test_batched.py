@@ -459,6 +459,27 @@ def test_the_frame_table_and_each_worlds_rows_give_the_same_pixels(extra):
     assert torch.equal(frames[0], frames[1])
 
 
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_a_worlds_own_sky_is_marked_changed_exactly_when_its_distraction_writes_it(dynamic):
+    """Each world's own row (a blended sky): its part's sky_version, which a CUDA renderer uploads on,
+    rises at the steps a sky is written (every step of a dynamic background) and at no other."""
+    from dcs_torchrl.envs import _distracted_env, resolve_settings
+
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=dynamic, background_blend=0.5)
+    env = BatchedSuiteEnv([_distracted_env(settings, False) for _ in range(4)], height=16, width=16, render_chunks=2,
+                          sky_table=False)
+    env.set_seed(0)
+    td = env.reset()
+    versions = [[scene.sky_version for scene in env._scenes]]
+    for action in _actions(3, 4):
+        td = env.step(td.set("action", action))["next"]
+        versions.append([scene.sky_version for scene in env._scenes])
+    env.close()
+    assert versions[0] == [2, 2]  # two worlds a part, each written at the reset
+    rises = [[b - a for a, b in zip(before, after)] for before, after in zip(versions, versions[1:])]
+    assert rises == [[2, 2] if dynamic else [0, 0]] * 3
+
+
 def test_the_frame_table_holds_each_clip_once_and_keeps_rows_as_it_grows():
     from dcs_torchrl.vector.batched import _FrameTable
 

@@ -164,9 +164,13 @@ class WorldState:
             geom_xpos=np.zeros((n, model.ngeom, 3), f32), geom_xmat=np.zeros((n, model.ngeom, 9), f32),
             cam_xpos=np.zeros((n, model.ncam, 3), f32), cam_xmat=np.zeros((n, model.ncam, 9), f32),
             light_xpos=np.zeros((n, model.nlight, 3), f32), light_xdir=np.zeros((n, model.nlight, 3), f32),
-            mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=sky,
-            sky_index=np.arange(n, dtype=np.int32) % len(sky),
+            mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=sky, sky_index=_first_rows(n, sky),
         )
+
+
+def _first_rows(n: int, sky: np.ndarray) -> np.ndarray:
+    """World ``i``'s row before it is told one: its own, or the one row all share."""
+    return np.arange(n, dtype=np.int32) % len(sky)
 
 
 def skybox_faces(model) -> np.ndarray:
@@ -385,7 +389,7 @@ class WarpRenderer:
                 light_xpos=d.light_xpos.numpy(), light_xdir=d.light_xdir.numpy(), mat_rgba=m.mat_rgba.numpy(),
                 sky=sky, sky_index=self._sky_index.numpy(),
             )
-            state.sky_index[:] = np.arange(n, dtype=np.int32) % len(sky)
+            state.sky_index[:] = _first_rows(n, sky)
         self._own = state
         return state
 

@@ -106,12 +106,14 @@ def compact_skies(settings) -> Iterator[None]:
 
 class _SkySink:
     """Takes a world's new sky where :class:`~dcs_torchrl.RenderPixels` would upload it (the
-    background distraction's ``upload_textures(context)``) and writes it into that world's row."""
+    background distraction's ``upload_textures(context)``), writes it into that world's row of
+    ``scene`` and raises the scene's ``sky_version`` (a CUDA renderer then uploads the rows again)."""
 
-    def __init__(self, rows: np.ndarray):
-        self.rows = rows  # [faces, side, side, 3] of this world
+    def __init__(self, scene, row: int):
+        self.scene, self.rows = scene, scene.sky[row]  # [faces, side, side, 3] of this world
 
     def upload_cube(self, tex_id: int, faces: list[np.ndarray]) -> None:
+        self.scene.sky_version += 1
         if len(faces) == 1:  # one face on all six, in a batch whose other worlds show six: the same pixels
             self.rows[...] = faces[0]
             return
@@ -136,8 +138,8 @@ class _FrameTable:
 
     def row(self, clip: np.ndarray, frame: int) -> int:
         """The row of frame ``frame`` of ``clip`` (uint8 ``[T, side, side, 3]``, added on first sight)."""
-        entry = self._offsets.get(id(clip))
-        if entry is None or entry[1] is not clip:
+        entry = self._offsets.get(id(clip))  # the clip is kept: its id is not another's
+        if entry is None:
             entry = self._offsets[id(clip)] = (self._add(clip), clip)
         return entry[0] + frame
 
@@ -254,7 +256,7 @@ class BatchedSuiteEnv(EnvBase):
         self._scenes = [renderer.state(sky) for renderer, sky in zip(self.renderers, skies)]
         self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
         rows = videos is not None and self._table is None
-        self._sinks = [_SkySink(self._scenes[c].sky[i]) for c, i in self._where] if rows else None
+        self._sinks = [_SkySink(self._scenes[c], i) for c, i in self._where] if rows else None
         self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
         self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
         self._pool = ThreadPoolExecutor(RENDER_THREADS, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
@@ -350,7 +352,6 @@ class BatchedSuiteEnv(EnvBase):
                 scene.sky, scene.sky_version = self._table.rows, self._table.version
         elif self._sinks is not None:
             world.background.upload_textures(self._sinks[index])
-            scene.sky_version += 1
 
     def _render_chunk(self, chunk: int) -> None:
         """Renders chunk ``chunk`` into this env's pixel (and label) buffers: now, or in the render

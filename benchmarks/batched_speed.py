@@ -3,6 +3,7 @@
     python benchmarks/batched_speed.py [--device cpu|cuda] [--sizes 1 4 16 64 256] [--rounds 3]
         [--seconds 4] [--tasks cartpole:swingup cheetah:run] [--presets none medium]
     python benchmarks/batched_speed.py --physics-only [--sizes 64] [--tasks ...]
+    either with [--processes P]: beside the batch in this process, the batch shared among P processes
 
 All in, as a user steps an env: distractions (``medium`` is the dynamic medium preset), uint8
 pixels in a torch tensor, TorchRL's ``step`` with ``step_and_maybe_reset``, a random action per
@@ -23,6 +24,11 @@ C, the task over arrays) on one thread and on every core, with the state observa
 the bound of any path that steps MuJoCo: ``mujoco.rollout`` of every env's state on every core, the
 physics alone (no task, no reward, no observation, no state carried into the env: its warmstart is
 not returned, so it is not the episodes of dm_control's step).
+
+``--processes P``: all in, a row ``warp N=n, P processes`` per size (``make_env(..., processes=P)``: P Warp
+batches of the n envs, one per process, the first in this one; their shares are the workers' own, not
+printed); with ``--physics-only``, a column with the N envs' BatchPhysics shared among P processes (N/P
+envs each, threads chosen in each), stepped at once, their rates summed: the physics of ``processes=P``.
 """
 from __future__ import annotations
 
@@ -91,6 +97,9 @@ def main():
     parser.add_argument("--seconds", type=float, default=4.0)
     parser.add_argument("--tasks", nargs="+", default=["cartpole:swingup", "cheetah:run"])
     parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=list(PRESETS))
+    parser.add_argument("--processes", type=int, default=None, help="also the batch shared among this many processes")
+    parser.add_argument("--processes-only", action="store_true", help="with --processes: leave out the batch in one "
+                        "process (all in), for sizes an earlier run measured")
     parser.add_argument("--no-gl", action="store_true", help="leave out the GL rows (a GPU box without EGL)")
     parser.add_argument("--physics-only", action="store_true", help="no render: today's per-env physics beside "
                         "BatchPhysics (MuJoCo's C over threads, the task over arrays)")
@@ -115,8 +124,12 @@ def main():
                 paths["ParallelSuiteEnv(2)"] = Timed(
                     dcs.ParallelSuiteEnv(2, functools.partial(dcs.make_env, domain, task, **PRESETS[preset])))
             for n in sizes:
-                paths[f"warp N={n}"] = Timed(dcs.make_env(domain, task, num_envs=n, backend="warp",
-                                                          device=args.device, **options))
+                if not (args.processes_only and args.processes):
+                    paths[f"warp N={n}"] = Timed(dcs.make_env(domain, task, num_envs=n, backend="warp",
+                                                              device=args.device, **options))
+                if args.processes and 1 < args.processes <= n:
+                    paths[f"warp N={n}, {args.processes} processes"] = Timed(dcs.make_env(
+                        domain, task, num_envs=n, backend="warp", device=args.device, processes=args.processes, **options))
             rates = {name: [] for name in paths}
             for _ in range(args.rounds):
                 for name, timed in paths.items():
@@ -221,18 +234,22 @@ def physics_only(args) -> None:
     cores = physics_threads()
     print(f"{cpu_model()}; {cores} cores; {args.rounds} rounds of ~{args.seconds:g} s, interleaved; median "
           "env-agent steps/s (ratio to today's per-env path); no render, random actions")
+    apart = args.processes if args.processes and args.processes > 1 else None
     print("| task (action repeat) | N | dm_control step, env by env | BatchPhysics, 1 thread | "
-          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) | bound: mujoco.rollout, "
-          f"{cores} threads, physics alone |")
-    print("|---|--:|--:|--:|--:|--:|--:|")
+          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) | "
+          + (f"BatchPhysics in {apart} processes | " if apart else "")
+          + f"bound: mujoco.rollout, {cores} threads, physics alone |")
+    print("|---|--:|--:|--:|--:|--:|--:|" + ("--:|" if apart else ""))
     for spec in args.tasks:
         domain, task = spec.split(":")
         if (domain, task) not in TASKS:
             raise SystemExit(f"{domain}:{task} is not over arrays; choose among {[':'.join(t) for t in TASKS]}")
         for n in sizes:
             paths = {"today": PhysicsTimed(domain, task, n, False), "1": PhysicsTimed(domain, task, n, 1),
-                     "all": PhysicsTimed(domain, task, n, cores), "chosen": PhysicsTimed(domain, task, n, None),
-                     "bound": PhysicsTimed(domain, task, n, "rollout")}
+                     "all": PhysicsTimed(domain, task, n, cores), "chosen": PhysicsTimed(domain, task, n, None)}
+            if apart:
+                paths["apart"] = ProcessesTimed(domain, task, n, apart)
+            paths["bound"] = PhysicsTimed(domain, task, n, "rollout")
             rates = {name: [] for name in paths}
             for _ in range(args.rounds):
                 for name, timed in paths.items():
@@ -241,6 +258,46 @@ def physics_only(args) -> None:
             cells = [f"{statistics.median(v):.0f} ({statistics.median(v) / base:.1f}x)" for v in rates.values()]
             cells[3] += f" ({paths['chosen'].batch.threads})"
             print(f"| {domain} {task} ({paths['today'].k}) | {n} | {' | '.join(cells)} |")
+            if apart:
+                paths["apart"].close()
+
+
+class ProcessesTimed:
+    """N envs' BatchPhysics shared among ``processes`` spawned processes (contiguous, near-equal shares,
+    threads chosen in each), stepped at once; ``run(seconds)`` returns their env-agent steps/s summed."""
+
+    def __init__(self, domain: str, task: str, n: int, processes: int):
+        import multiprocessing as mp
+
+        ctx = mp.get_context("spawn")
+        shares = [round((k + 1) * n / processes) - round(k * n / processes) for k in range(processes)]
+        self.pipes, self.procs = [], []
+        for share in shares:
+            here, there = ctx.Pipe()
+            proc = ctx.Process(target=_physics_share, args=(domain, task, share, there), daemon=True)
+            proc.start()
+            self.pipes.append(here)
+            self.procs.append(proc)
+        for pipe in self.pipes:
+            pipe.recv()  # built
+
+    def run(self, seconds: float) -> float:
+        for pipe in self.pipes:
+            pipe.send(seconds)
+        return sum(pipe.recv() for pipe in self.pipes)
+
+    def close(self) -> None:
+        for pipe, proc in zip(self.pipes, self.procs):
+            pipe.send(None)
+            proc.join()
+
+
+def _physics_share(domain: str, task: str, n: int, pipe) -> None:
+    """A process of :class:`ProcessesTimed`: its share's BatchPhysics, run for the seconds it is sent."""
+    timed = PhysicsTimed(domain, task, n, None)
+    pipe.send(True)
+    while (seconds := pipe.recv()) is not None:
+        pipe.send(timed.run(seconds))
 
 
 if __name__ == "__main__":

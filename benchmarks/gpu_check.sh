@@ -9,7 +9,8 @@
 #   bash benchmarks/gpu_check.sh concurrent # benchmarks/concurrent_runs.py: 1, 2, 4, 8 recipe runs at once on the GPU (~5 min)
 #   bash benchmarks/gpu_check.sh batched  # CUDA frames against CPU Warp frames; the batch's physics alone on every
 #                                         # core (--physics-only); batched_speed.py --device cuda: the Warp backend, N up
-#                                         # to 4096, cartpole medium dynamic, with the physics / scene / render shares (needs
+#                                         # to 4096, cartpole medium dynamic, with the physics / scene / render shares, and
+#                                         # the batch shared among 16 processes (processes=16) (needs
 #                                         # mujoco-warp and warp-lang: warp-lang's wheel, ~150 MB, exceeds one
 #                                         # call's 64 MiB: carry it in parts (split -b 60M) over consecutive calls
 #                                         # and join them in a scratch folder there, then pip install --no-deps)
@@ -88,11 +89,12 @@ case $stage in
     step cuda_first "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider -p no:benchmark tests/test_batched.py -k "cuda_frames and cuda-first"
     step cpu_first "$(left 150)" python3 -m pytest -q -rfE -p no:cacheprovider -p no:benchmark tests/test_batched.py -k "cuda_frames and cpu-first"
     step physics_only "$(left 150)" python3 benchmarks/batched_speed.py --physics-only --sizes 128 --rounds 1 --seconds 2 \
-      --tasks cartpole:swingup walker:walk
+      --tasks cartpole:swingup walker:walk --processes 16
     step batched_speed "$(left 300)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
-      --presets medium --sizes 256 1024 --rounds 2 --seconds 3
+      --presets medium --sizes 256 1024 --rounds 2 --seconds 3 --processes 16
+    # N = 4096 in one process has its row in docs/performance.md ("GPU"): here the batch shared among 16 processes
     step batched_4096 "$(left 400)" python3 benchmarks/batched_speed.py --device cuda --no-gl --tasks cartpole:swingup \
-      --presets medium --sizes 4096 --rounds 1 --seconds 4
+      --presets medium --sizes 4096 --rounds 1 --seconds 4 --processes 16 --processes-only
     ;;
   suite)
     step suite 560 env OMP_NUM_THREADS=2 python3 -m pytest "${suite_args[@]}" -n 16 --junitxml="$OUT/suite.xml"

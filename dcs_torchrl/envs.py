@@ -79,14 +79,20 @@ class EnvOptions:
     num_envs: int | None = _option(None, "``N`` envs in one env of batch size ``[N]`` (pixels ``[N, H, W, 3]``), env "
                                          "``i`` seeded as TorchRL seeds its batched envs' workers: "
                                          '``backend="gl"``, one process each (:class:`dcs_torchrl.ParallelSuiteEnv`); '
-                                         '``backend="warp"``, all in this process, rendered in one batch (required '
-                                         "there). ``None``: one env, batch size ``[]`` (GL).", scene=False)
+                                         '``backend="warp"``, in this process (or ``processes``), rendered in one batch '
+                                         "(required there). ``None``: one env, batch size ``[]`` (GL).", scene=False)
     backend: str = _option(
         "gl", '``"gl"`` (default): one env, rendered by MuJoCo\'s OpenGL renderer, the reference the paper\'s '
               'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process, each with its own '
               "physics, task and distractions as on GL, rendered in one batch by MuJoCo Warp "
               '(:class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`; ``pip install "dcs-torchrl[warp]"``; '
               "docs/batched.md).", scene=False)
+    processes: int | None = _option(
+        None, '``backend="warp"``: step the ``num_envs`` envs in this many processes, each a Warp batch of '
+              "its share (contiguous, near-equal) with its own physics, distractions and render, the first in "
+              "this process (:class:`dcs_torchrl.ParallelSuiteEnv` with ``envs_per_worker``): the episodes and "
+              "pixels of one batch, for a machine whose cores one process's Python cannot keep busy (a GPU box). "
+              "``None`` or 1: one batch, in this process.", scene=False)
     masks: bool = _option(False, 'add ``"masks"``, a uint8 label per pixel (0 background, 1 floor, 2 agent: '
                                  ":data:`dcs_torchrl.render.warp.MASK_LABELS`) from the render's segmentation; "
                                  '``backend="warp"`` only.', scene=False)
@@ -222,7 +228,15 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
     if o.backend == "warp" and o.num_envs is None:
         raise ValueError("backend='warp' renders a batch: pass num_envs=N (an env of batch size [N]; N=1 for one "
                          "env), or backend='gl' (the default) for one unbatched env.")
-    if o.backend == "warp":
+    if o.backend == "warp" and (o.processes or 1) > 1:  # P batches, one per process: a chain of batches
+        from dcs_torchrl.vector.parallel import ParallelSuiteEnv
+
+        sizes = [round((k + 1) * o.num_envs / o.processes) - round(k * o.num_envs / o.processes)
+                 for k in range(o.processes)]
+        one = {k: v for k, v in options.items() if k not in ("num_envs", "seed", "processes")}
+        env = ParallelSuiteEnv(o.processes, [functools.partial(make_env, domain, task, **one, num_envs=k) for k in sizes],
+                               envs_per_worker=sizes, device=o.device)
+    elif o.backend == "warp":
         env = _warp_env([(s, o.num_envs)], o)
     elif o.num_envs is not None:  # N GL envs, one process each: env i is make_env(...) seeded by the chain
         from dcs_torchrl.vector.parallel import ParallelSuiteEnv
@@ -261,6 +275,9 @@ def make_grouped_env(domain: str, task: str, groups: Sequence[tuple[Mapping, int
                         "backend ('warp') and the envs per group are the groups' (settings, num_envs).")
     o = EnvOptions(**options, backend="warp")
     _check_options(o)
+    if (o.processes or 1) > 1:
+        raise ValueError("make_grouped_env renders its groups in one batch, in this process: leave processes out "
+                         "(or build each group with make_env(..., num_envs=n, backend='warp', processes=p)).")
     resolved = []
     for group in groups:
         if not (isinstance(group, tuple) and len(group) == 2 and isinstance(group[0], Mapping)):
@@ -288,6 +305,15 @@ def _check_options(o: EnvOptions) -> None:
         raise ValueError(f"unknown backend {o.backend!r}; choose one of {list(BACKENDS)}.")
     if o.num_envs is not None and (isinstance(o.num_envs, bool) or not isinstance(o.num_envs, int) or o.num_envs < 1):
         raise ValueError(f"num_envs must be a positive integer (or None), got {o.num_envs!r}.")
+    if o.processes is not None:
+        if isinstance(o.processes, bool) or not isinstance(o.processes, int) or o.processes < 1:
+            raise ValueError(f"processes must be a positive integer (or None), got {o.processes!r}.")
+        if o.backend != "warp":
+            raise ValueError("processes splits a Warp batch (backend='warp'); the GL backend already steps each of "
+                             "its num_envs envs in a process of its own: leave processes out.")
+        if o.num_envs is not None and o.processes > o.num_envs:
+            raise ValueError(f"processes={o.processes} is more than the num_envs={o.num_envs} envs to share among "
+                             "them: pass processes <= num_envs.")
 
 
 def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:

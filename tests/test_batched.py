@@ -798,3 +798,55 @@ def test_warp_batches_keep_videos_apart_and_share_the_envs_among_the_processes()
     many = {f"c{i}": {"color_scale": 0.01 * i} for i in range(30)}
     assert max(len(b) for b in _warp_batches(config, many, 10, processes=1)) == WARP_BATCH_ENVS // 10
     assert _warp_batches(config, {"one": {}}, 500, processes=4) == [["one"]]  # one setting's episodes: one batch
+
+
+def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
+    """processes=2: the envs shared among two Warp batches (2 + 1, the first in this process) run the
+    episodes, distraction draws, pixels and masks of one batch seeded alike, across an episode end,
+    a partial step and a partial reset within a process's share."""
+    n, steps = 3, EPISODE + 6
+    actions = _actions(steps, n)
+    partial_step, partial_reset = 3, 6  # the steps at which only some envs are stepped / reset
+    runs = []
+    for processes in (2, None):
+        env = _warp(n, processes=processes, masks=True)
+        assert env.batch_size == (n,) and isinstance(env, dcs.ParallelSuiteEnv) == (processes == 2)
+        env.set_seed(9)
+        td, run = env.reset(), []
+        run.append(td.clone())
+        for t, action in enumerate(actions):
+            if t == partial_reset:
+                td = env.reset(td.set("_reset", torch.tensor([[False], [True], [False]])))
+                run.append(td.clone())
+            if t == partial_step:
+                td.set("_step", torch.tensor([True, False, True]))
+            out, td = env.step_and_maybe_reset(td.set("action", action))
+            td = td.exclude("_step")
+            run.append(out["next"].clone())
+        env.close()
+        runs.append(run)
+    for t, (apart, together) in enumerate(zip(*runs)):
+        assert set(apart.keys(True, True)) == set(together.keys(True, True))
+        for key in together.keys(True, True):
+            assert torch.equal(apart[key], together[key]), f"step {t}: {key} differs"
+    assert any(r["done"].any() for r in runs[0])
+    assert runs[0][partial_step + 1]["reward"][1].item() == 0  # env 1 was not stepped (run[t + 1] is step t)
+
+
+def test_processes_are_refused_where_they_cannot_apply():
+    with pytest.raises(ValueError, match="leave processes out"):
+        make_env("cartpole", "swingup", num_envs=2, processes=2)  # GL
+    with pytest.raises(ValueError, match="processes <= num_envs"):
+        make_env("cartpole", "swingup", num_envs=2, backend="warp", processes=3)
+    for bad in (0, True, 1.5):
+        with pytest.raises(ValueError, match="processes must be a positive integer"):
+            make_env("cartpole", "swingup", num_envs=2, backend="warp", processes=bad)
+    with pytest.raises(ValueError, match="leave processes out"):
+        dcs.make_grouped_env("cartpole", "swingup", [({}, 2)], processes=2)
+    one = functools.partial(make_env, "cartpole", "swingup", num_envs=2, backend="warp", height=16, width=16)
+    with pytest.raises(ValueError, match=r"batch size \[2\], not \[1\]"):
+        dcs.ParallelSuiteEnv(2, one, envs_per_worker=[1, 2], first_here=True)
+    with pytest.raises(ValueError, match="envs_per_worker must hold num_workers=2"):
+        dcs.ParallelSuiteEnv(2, one, envs_per_worker=[2])
+    with pytest.raises(TypeError, match="sequence of num_workers=2 callables"):
+        dcs.ParallelSuiteEnv(2, [one])

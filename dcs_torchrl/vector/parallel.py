@@ -53,8 +53,9 @@ SPIN_S = 0.003
 
 
 class ParallelSuiteEnv(EnvBase):
-    """``num_workers`` envs from ``create_env_fn``, batch size ``[num_workers]``: the first in this
-    process (``first_here``), the others each in its own spawned process.
+    """``num_workers`` envs from ``create_env_fn``, batch size ``[num_workers]`` (or the sum of
+    ``envs_per_worker``, where each worker's env is a batch): the first in this process
+    (``first_here``), the others each in its own spawned process.
 
     A drop-in for ``torchrl.envs.ParallelEnv(num_workers, create_env_fn)`` for envs whose step is
     a render (the suite's): the same specs, seeding, partial resets (``"_reset"``: the other envs
@@ -98,6 +99,12 @@ class ParallelSuiteEnv(EnvBase):
         device (optional): the env's device, where its specs say and its outputs are (e.g.
             ``"cuda"`` for a policy on a GPU); the workers' envs and their shared buffers stay on
             the CPU, actions are copied there. Default ``"cpu"``.
+        envs_per_worker (sequence of int, optional): each worker's env is itself a batch, worker
+            ``i``'s of batch size ``[envs_per_worker[i]]`` (a Warp batch, ``make_env(...,
+            num_envs=k, backend="warp")``, which ``make_env(..., processes=P)`` builds here): the envs
+            lie worker after worker, batch size ``[sum(envs_per_worker)]``; a ``"_step"`` or
+            ``"_reset"`` mask acts on the envs it marks within each worker. ``None`` (default): one
+            env per worker, batch size ``[num_workers]``.
 
     Examples:
         >>> import functools
@@ -113,19 +120,20 @@ class ParallelSuiteEnv(EnvBase):
     #: its physics live in its workers.
     physics_in_workers = True
 
-    def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase], *, render_threads: int | None = None,
-                 render_devices: Sequence[int] | None = None, spin_s: float = SPIN_S,
-                 first_here: bool | None = None, mp_start_method: str = "spawn", device=None):
+    def __init__(self, num_workers: int, create_env_fn: Callable[[], EnvBase] | Sequence[Callable[[], EnvBase]], *,
+                 render_threads: int | None = None, render_devices: Sequence[int] | None = None, spin_s: float = SPIN_S,
+                 first_here: bool | None = None, mp_start_method: str = "spawn", device=None,
+                 envs_per_worker: Sequence[int] | None = None):
         if not isinstance(num_workers, int) or isinstance(num_workers, bool) or num_workers < 1:
             raise ValueError(f"num_workers must be an int >= 1, got {num_workers!r}.")
+        factories = _factories(create_env_fn, num_workers)
+        rows, size = _rows(envs_per_worker, num_workers)
         if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 0):
             raise ValueError(f"render_threads must be an int >= 0 (0: render in the worker's own thread) or None, "
                              f"got {render_threads!r}.")
         if isinstance(spin_s, bool) or not isinstance(spin_s, (int, float)) or not 0 <= spin_s < _POLL_S:
             raise ValueError(f"spin_s must be seconds in [0, {_POLL_S}) (0: sleep at once), got {spin_s!r}.")
         devices = render_device_indices(render_devices)
-        if not callable(create_env_fn):
-            raise TypeError(f"create_env_fn must be callable (a function or functools.partial), got {create_env_fn!r}.")
         here_renders = devices is None or devices[0] == process_render_device()
         if first_here is None:
             first_here = num_workers >= 2 and here_renders
@@ -137,8 +145,10 @@ class ParallelSuiteEnv(EnvBase):
                 f"not render_devices[0] = {devices[0]}: pass first_here=False, or set {_EGL_DEVICE} before importing "
                 "dm_control."
             )
-        super().__init__(batch_size=[num_workers], device=_BUFFERS if device is None else device)
+        super().__init__(batch_size=[size], device=_BUFFERS if device is None else device)
         self.num_workers = num_workers
+        self._rows = rows  # worker i's envs: its row (an int) or its rows (a slice) of the batch
+        self._owners = torch.tensor([i for i, r in enumerate(rows) for _ in _range(r)])  # each env's worker
         self._render_devices = devices
         self._spin_s = float(spin_s)
         self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
@@ -148,12 +158,12 @@ class ParallelSuiteEnv(EnvBase):
         ctx = mp.get_context(mp_start_method)
         try:
             if first_here:
-                self._here = _Stepper(create_env_fn())
+                self._here = _Stepper(_build(factories[0], rows[0]))
                 self._pipes.append(None)
                 self._procs.append(None)
             for index in range(len(self._pipes), num_workers):
                 here, there = ctx.Pipe()
-                args = (create_env_fn, there, index, self._spin_s)
+                args = (factories[index], there, index, rows[index], self._spin_s)
                 proc = ctx.Process(target=_work, args=args, daemon=True, name=f"ParallelSuiteEnv-{index}")
                 with spawn_environment({_EGL_DEVICE: None if devices is None else devices[index % len(devices)],
                                         RENDER_THREADS_VARIABLE: render_threads}):  # read at its first import
@@ -171,7 +181,7 @@ class ParallelSuiteEnv(EnvBase):
             for pipe in self._remote(range(num_workers)):
                 pipe.send(self._buffers)
             if first_here:
-                self._here.attach(self._buffers, 0)
+                self._here.attach(self._buffers, rows[0])
             self._wait(range(num_workers))
         except BaseException:
             self.close(raise_if_closed=False)
@@ -184,9 +194,19 @@ class ParallelSuiteEnv(EnvBase):
 
     # ------------------------------------------------------------------ set-up
     def _set_specs(self, specs: dict) -> None:
-        n = self.num_workers
+        n, batched = self.batch_size[0], isinstance(self._rows[0], slice)
         for name in _SPECS:
-            setattr(self, name, specs[name].expand(n, *specs[name].shape).to(_BUFFERS))
+            spec = specs[name][0] if batched else specs[name]  # one env's, from worker 0's batch
+            setattr(self, name, spec.expand(n, *spec.shape).to(_BUFFERS))
+
+    def _workers(self, tensordict: TensorDictBase | None, key: str) -> list[int]:
+        """The workers with an env that ``key`` (``"_step"``, ``"_reset"``) of ``tensordict`` marks (all
+        without one); a batch worker finds in the shared buffers which of its envs."""
+        envs = marked(tensordict, key, self.batch_size[0])
+        if key in self._buffers.keys():
+            self._buffers[key].zero_()
+            self._buffers[key][envs] = True
+        return sorted(set(self._owners[envs].tolist()))
 
     # ------------------------------------------------------------- TorchRL hooks
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -194,12 +214,15 @@ class ParallelSuiteEnv(EnvBase):
         for the envs still running); an env not stepped keeps its last observation and done flags,
         with reward 0, as the batched env's."""
         self._buffers["action"].update_(tensordict.select(*self.action_keys))
-        workers = marked(tensordict, "_step", self.num_workers)
+        workers = self._workers(tensordict, "_step")
         self._command(_STEP, workers)
         out = _copy(self._buffers["next"])
-        if len(workers) < self.num_workers:
-            skipped = torch.ones(self.num_workers, dtype=torch.bool)
-            skipped[workers] = False
+        if "_step" in self._buffers.keys():  # each worker's env a batch: the envs marked
+            stepped = self._buffers["_step"]
+        else:
+            stepped = torch.isin(self._owners, torch.tensor(workers, dtype=torch.long))
+        if not stepped.all():
+            skipped = ~stepped
             for key in self.reward_keys:
                 out.get(key)[skipped] = 0
         return out.to(self.device)  # no copy on the buffers' device
@@ -207,7 +230,7 @@ class ParallelSuiteEnv(EnvBase):
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         if kwargs:
             raise TypeError(f"ParallelSuiteEnv.reset takes no keyword arguments, got {sorted(kwargs)}.")
-        workers = marked(tensordict, "_reset", self.num_workers)
+        workers = self._workers(tensordict, "_reset")
         self._command(_RESET, workers)
         out = _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
         return out.to(self.device)  # no copy on the buffers' device
@@ -329,25 +352,68 @@ def _copy(td: TensorDictBase) -> TensorDictBase:
     return td.apply(lambda t: torch.from_numpy(t.numpy().copy()))
 
 
+def _factories(create_env_fn, num_workers: int) -> list[Callable[[], EnvBase]]:
+    """Worker ``i``'s env factory: ``create_env_fn`` for all, or its ``i``-th."""
+    if callable(create_env_fn):
+        return [create_env_fn] * num_workers
+    factories = list(create_env_fn) if isinstance(create_env_fn, Sequence) else []
+    if len(factories) != num_workers or not all(callable(f) for f in factories):
+        raise TypeError(f"create_env_fn must be callable (a function or functools.partial) or a sequence of "
+                        f"num_workers={num_workers} callables, got {create_env_fn!r}.")
+    return factories
+
+
+def _rows(envs_per_worker: Sequence[int] | None, num_workers: int) -> tuple[list, int]:
+    """Each worker's rows of the batch (its index, or a slice where each worker's env is a batch) and the
+    batch size."""
+    if envs_per_worker is None:
+        return list(range(num_workers)), num_workers
+    sizes = list(envs_per_worker)
+    if len(sizes) != num_workers or any(isinstance(k, bool) or not isinstance(k, int) or k < 1 for k in sizes):
+        raise ValueError(f"envs_per_worker must hold num_workers={num_workers} positive ints (each worker's batch "
+                         f"size), got {envs_per_worker!r}.")
+    bounds = [sum(sizes[:i]) for i in range(num_workers + 1)]
+    return [slice(a, b) for a, b in zip(bounds, bounds[1:])], bounds[-1]
+
+
+def _range(rows) -> range:
+    return range(rows, rows + 1) if isinstance(rows, int) else range(rows.start, rows.stop)
+
+
+def _build(create_env_fn: Callable[[], EnvBase], rows) -> EnvBase:
+    """The env of a worker with ``rows`` of the batch, checked to be of the batch size they span."""
+    env = create_env_fn()
+    expected = torch.Size([]) if isinstance(rows, int) else torch.Size([rows.stop - rows.start])
+    if env.batch_size != expected:
+        size = env.batch_size
+        env.close()
+        raise ValueError(f"the worker's env has batch size {list(size)}, not {list(expected)}: with "
+                         "envs_per_worker, worker i's env must be a batch of envs_per_worker[i] envs; without "
+                         "it, one env of batch size [].")
+    return env
+
+
 def _shared_buffers(env: ParallelSuiteEnv) -> TensorDict:
-    """``"action"``: what the workers read; ``"next"``: what they write (observations, reward, done)."""
+    """``"action"``: what the workers read; ``"next"``: what they write (observations, reward, done); where
+    each worker's env is a batch, ``"_step"`` and ``"_reset"``: which of its envs a command acts on."""
     step_spec = Composite(shape=env.batch_size)
     for spec in (env.full_observation_spec, env.full_reward_spec, env.full_done_spec):
         step_spec.update(spec)
-    return TensorDict(
-        {"action": env.full_action_spec.zero(), "next": step_spec.zero()}, batch_size=env.batch_size, device=_BUFFERS
-    ).share_memory_()
+    buffers = {"action": env.full_action_spec.zero(), "next": step_spec.zero()}
+    if isinstance(env._rows[0], slice):
+        buffers.update({key: torch.ones(env.batch_size, dtype=torch.bool) for key in ("_step", "_reset")})
+    return TensorDict(buffers, batch_size=env.batch_size, device=_BUFFERS).share_memory_()
 
 
-def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, spin_s: float) -> None:
+def _work(create_env_fn: Callable[[], EnvBase], pipe: Connection, index: int, rows, spin_s: float) -> None:
     """A worker: builds its env, then steps, resets and seeds it on command until told to close."""
     torch.set_num_threads(1)
     try:
-        stepper = _Stepper(create_env_fn())
+        stepper = _Stepper(_build(create_env_fn, rows))
         pipe.send_bytes(_OK)
         if index == 0:
             pipe.send(stepper.specs())
-        stepper.attach(pipe.recv(), index)
+        stepper.attach(pipe.recv(), rows)
         pipe.send_bytes(_OK)
     except BaseException:
         _report(pipe)
@@ -386,12 +452,19 @@ class _Stepper:
     def specs(self) -> dict:
         return {name: getattr(self.env, name) for name in _SPECS}
 
-    def attach(self, buffers: TensorDictBase, index: int) -> None:
-        self.action, self.out = buffers["action"][index], buffers["next"][index]
+    def attach(self, buffers: TensorDictBase, rows) -> None:
+        """Its row (an int) or rows (a slice, where its env is a batch) of the shared buffers."""
+        self.action, self.out = buffers["action"][rows], buffers["next"][rows]
+        self.masks = {key: buffers[key][rows] for key in ("_step", "_reset")} if isinstance(rows, slice) else {}
         self.action_keys = list(self.env.action_keys)
         self.out_keys = list(self.out.keys(True, True))
         kept = set(self.env.observation_keys) | set(self.env.done_keys)
         self.reset_keys = [k for k in self.out_keys if k in kept]
+
+    def _mask(self, key: str) -> torch.Tensor | None:
+        """Which envs of a batch a command acts on (``None``: all of them, or an env that is no batch)."""
+        mask = self.masks.get(key)
+        return None if mask is None or mask.all() else mask.clone()
 
     def run(self, command: bytes) -> None:
         if command == _STEP:
@@ -399,10 +472,15 @@ class _Stepper:
                 raise RuntimeError("step before reset: call env.reset() first.")
             for key in self.action_keys:
                 self.td.set(key, self.action.get(key).clone())
+            mask = self._mask("_step")
+            if mask is not None:
+                self.td.set("_step", mask)
             self.td = self.env.step(self.td).get("next")
             self.out.update_(self.td.select(*self.out_keys))
         elif command == _RESET:
-            self.td = self.env.reset()
+            mask = self._mask("_reset")
+            reset = None if mask is None else TensorDict({"_reset": mask.unsqueeze(-1)}, self.env.batch_size)
+            self.td = self.env.reset(reset)
             self.out.update_(self.td.select(*self.reset_keys))
         else:
             raise ValueError(f"unknown command {command!r}")

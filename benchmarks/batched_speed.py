@@ -28,7 +28,8 @@ not returned, so it is not the episodes of dm_control's step).
 ``--processes P``: all in, a row ``warp N=n, P processes`` per size (``make_env(..., processes=P)``: P Warp
 batches of the n envs, one per process, the first in this one; their shares are the workers' own, not
 printed); with ``--physics-only``, a column with the N envs' BatchPhysics shared among P processes (N/P
-envs each, threads chosen in each), stepped at once, their rates summed: the physics of ``processes=P``.
+envs each, one thread each where P is the core count or more, else chosen), stepped at once, their rates summed: the
+physics of ``processes=P``.
 """
 from __future__ import annotations
 
@@ -263,8 +264,8 @@ def physics_only(args) -> None:
 
 
 class ProcessesTimed:
-    """N envs' BatchPhysics shared among ``processes`` spawned processes (contiguous, near-equal shares,
-    threads chosen in each), stepped at once; ``run(seconds)`` returns their env-agent steps/s summed."""
+    """N envs' BatchPhysics shared among ``processes`` spawned processes (contiguous, near-equal shares, threads
+    as ``make_env(..., processes=P)`` gives each), stepped at once; ``run(seconds)`` returns their env-agent steps/s summed."""
 
     def __init__(self, domain: str, task: str, n: int, processes: int):
         import multiprocessing as mp
@@ -274,7 +275,8 @@ class ProcessesTimed:
         self.pipes, self.procs = [], []
         for share in shares:
             here, there = ctx.Pipe()
-            proc = ctx.Process(target=_physics_share, args=(domain, task, share, there), daemon=True)
+            threads = 1 if physics_threads() <= processes else None  # as make_env(..., processes=P) steps them
+            proc = ctx.Process(target=_physics_share, args=(domain, task, share, threads, there), daemon=True)
             proc.start()
             self.pipes.append(here)
             self.procs.append(proc)
@@ -292,9 +294,9 @@ class ProcessesTimed:
             proc.join()
 
 
-def _physics_share(domain: str, task: str, n: int, pipe) -> None:
+def _physics_share(domain: str, task: str, n: int, threads: int | None, pipe) -> None:
     """A process of :class:`ProcessesTimed`: its share's BatchPhysics, run for the seconds it is sent."""
-    timed = PhysicsTimed(domain, task, n, None)
+    timed = PhysicsTimed(domain, task, n, threads)
     pipe.send(True)
     while (seconds := pipe.recv()) is not None:
         pipe.send(timed.run(seconds))

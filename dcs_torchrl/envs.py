@@ -229,12 +229,15 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
         raise ValueError("backend='warp' renders a batch: pass num_envs=N (an env of batch size [N]; N=1 for one "
                          "env), or backend='gl' (the default) for one unbatched env.")
     if o.backend == "warp" and (o.processes or 1) > 1:  # P batches, one per process: a chain of batches
+        from dcs_torchrl.vector.batch_physics import physics_threads
         from dcs_torchrl.vector.parallel import ParallelSuiteEnv
 
         sizes = [round((k + 1) * o.num_envs / o.processes) - round(k * o.num_envs / o.processes)
                  for k in range(o.processes)]
-        one = {k: v for k, v in options.items() if k not in ("num_envs", "seed", "processes")}
-        env = ParallelSuiteEnv(o.processes, [functools.partial(make_env, domain, task, **one, num_envs=k) for k in sizes],
+        # a process with a core or less of its own steps its physics in one thread; else chosen by measurement
+        threads = 1 if physics_threads() <= o.processes else None
+        share = dataclasses.replace(o, seed=None, processes=None)
+        env = ParallelSuiteEnv(o.processes, [functools.partial(_warp_share, s, share, k, threads) for k in sizes],
                                envs_per_worker=sizes, device=o.device)
     elif o.backend == "warp":
         env = _warp_env([(s, o.num_envs)], o)
@@ -316,7 +319,13 @@ def _check_options(o: EnvOptions) -> None:
                              "them: pass processes <= num_envs.")
 
 
-def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
+def _warp_share(s: EnvSettings, o: EnvOptions, num_envs: int, physics_threads: int | None) -> EnvBase:
+    """One process's batch of ``make_env(..., processes=P)``: ``num_envs`` envs of settings ``s``, their
+    physics on ``physics_threads`` threads (``None``: chosen), unseeded (the chain through the batches seeds it)."""
+    return _warp_env([(s, num_envs)], o, physics_threads)
+
+
+def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions, physics_threads: int | None = None) -> EnvBase:
     """The :class:`~dcs_torchrl.vector.batched.BatchedSuiteEnv` of ``groups`` (settings, envs), unseeded."""
     from dcs_torchrl.render.warp import import_warp
     from dcs_torchrl.vector.batched import BatchedSuiteEnv, compact_skies
@@ -330,7 +339,8 @@ def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions) -> EnvBase:
             worlds += [_distracted_env(s, expose) for _ in range(count - (s is first))]
     return BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=first.camera_id,
                            device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
-                           masks=o.masks, render_profile=o.render_profile, groups=[count for _, count in groups])
+                           masks=o.masks, render_profile=o.render_profile, groups=[count for _, count in groups],
+                           physics_threads=physics_threads)
 
 
 def _keyword_docs() -> str:

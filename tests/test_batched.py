@@ -13,6 +13,7 @@ from torchrl.envs.utils import check_env_specs
 import dcs_torchrl as dcs
 from dcs_torchrl import BackgroundDistraction, make_env
 from dcs_torchrl.render.warp import MASK_LABELS
+from dcs_torchrl.vector.batch_physics import physics_threads
 from dcs_torchrl.vector.batched import BatchedSuiteEnv, _chunks
 
 pytest.importorskip("mujoco_warp")
@@ -811,6 +812,9 @@ def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
     for processes in (2, None):
         env = _warp(n, processes=processes, masks=True)
         assert env.batch_size == (n,) and isinstance(env, dcs.ParallelSuiteEnv) == (processes == 2)
+        if processes and physics_threads() <= processes:  # a core or less per process: its physics on one thread
+            here = env._here.env.physics  # the first process's share, stepped in this one
+            assert here.threads == 1 and not here._trials
         env.set_seed(9)
         td, run = env.reset(), []
         run.append(td.clone())

@@ -479,7 +479,8 @@ class _Stepper:
             self.out.update_(self.td.select(*self.out_keys))
         elif command == _RESET:
             mask = self._mask("_reset")
-            reset = None if mask is None else TensorDict({"_reset": mask.unsqueeze(-1)}, self.env.batch_size)
+            reset = None if mask is None else TensorDict({"_reset": mask.unsqueeze(-1)}, self.env.batch_size,
+                                                         device=self.env.device)
             self.td = self.env.reset(reset)
             self.out.update_(self.td.select(*self.reset_keys))
         else:

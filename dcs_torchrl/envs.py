@@ -83,8 +83,8 @@ class EnvOptions:
                                          "(required there). ``None``: one env, batch size ``[]`` (GL).", scene=False)
     backend: str = _option(
         "gl", '``"gl"`` (default): one env, rendered by MuJoCo\'s OpenGL renderer, the reference the paper\'s '
-              'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process, each with its own '
-              "physics, task and distractions as on GL, rendered in one batch by MuJoCo Warp "
+              'numbers are compared with. ``"warp"``: ``num_envs`` envs in this process (or ``processes``), each '
+              "with its own physics, task and distractions as on GL, rendered in one batch by MuJoCo Warp "
               '(:class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`; ``pip install "dcs-torchrl[warp]"``; '
               "docs/batched.md).", scene=False)
     processes: int | None = _option(

@@ -804,10 +804,11 @@ def test_warp_batches_keep_videos_apart_and_share_the_envs_among_the_processes()
 def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
     """processes=2: the envs shared among two Warp batches (2 + 1, the first in this process) run the
     episodes, distraction draws, pixels and masks of one batch seeded alike, across an episode end,
-    a partial step and a partial reset within a process's share."""
+    partial steps (within a process's share; none of a process's envs) and a partial reset."""
     n, steps = 3, EPISODE + 6
     actions = _actions(steps, n)
-    partial_step, partial_reset = 3, 6  # the steps at which only some envs are stepped / reset
+    # the steps at which only some envs are stepped (at 4, none of the second process's) / reset
+    partial_steps, partial_reset = {3: [True, False, True], 4: [True, True, False]}, 6
     runs = []
     for processes in (2, None):
         env = _warp(n, processes=processes, masks=True)
@@ -822,8 +823,8 @@ def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
             if t == partial_reset:
                 td = env.reset(td.set("_reset", torch.tensor([[False], [True], [False]])))
                 run.append(td.clone())
-            if t == partial_step:
-                td.set("_step", torch.tensor([True, False, True]))
+            if t in partial_steps:
+                td.set("_step", torch.tensor(partial_steps[t]))
             out, td = env.step_and_maybe_reset(td.set("action", action))
             td = td.exclude("_step")
             run.append(out["next"].clone())
@@ -834,7 +835,10 @@ def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
         for key in together.keys(True, True):
             assert torch.equal(apart[key], together[key]), f"step {t}: {key} differs"
     assert any(r["done"].any() for r in runs[0])
-    assert runs[0][partial_step + 1]["reward"][1].item() == 0  # env 1 was not stepped (run[t + 1] is step t)
+    for t, mask in partial_steps.items():  # run[t + 1] is step t: an env not stepped has reward 0, its state kept
+        for i in np.flatnonzero(~np.array(mask)):
+            assert runs[0][t + 1]["reward"][i].item() == 0
+            assert torch.equal(runs[0][t + 1]["position"][i], runs[0][t]["position"][i])
 
 
 def test_processes_are_refused_where_they_cannot_apply():

@@ -858,3 +858,29 @@ def test_processes_are_refused_where_they_cannot_apply():
         dcs.ParallelSuiteEnv(2, one, envs_per_worker=[2])
     with pytest.raises(TypeError, match="sequence of num_workers=2 callables"):
         dcs.ParallelSuiteEnv(2, [one])
+
+
+def test_the_gymnasium_vector_env_takes_processes_and_runs_the_same_episodes_and_frames():
+    """gymnasium.make_vec(..., processes=2): the batch shared among two processes under the vector env, frames,
+    rewards and episode ends those of one batch, through its autoreset and a reset_mask."""
+    import gymnasium
+
+    import dcs_torchrl.gym_env  # noqa: F401  (registers the ids)
+
+    n, options = 3, dict(action_repeat=100, height=32, width=32, device=DEVICE)
+    vectors = [gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=n,
+                                  vectorization_mode="vector_entry_point", **options, **extra)
+               for extra in ({"processes": 2}, {})]
+    assert isinstance(vectors[0].unwrapped.torchrl_env, dcs.ParallelSuiteEnv)
+    actions = _actions(EPISODE + 3, n).float().numpy()
+    outs = [[vector.reset(seed=5)[:1]] for vector in vectors]  # each entry: (obs,) or (obs, rewards, terminated, truncated)
+    for t, action in enumerate(actions):
+        for vector, out in zip(vectors, outs):
+            if t == 3:
+                out.append(vector.reset(options={"reset_mask": np.array([False, True, True])})[:1])
+            out.append(vector.step(action)[:4])
+    for t, (apart, together) in enumerate(zip(*outs)):
+        assert all(np.array_equal(a, b) for a, b in zip(apart, together)), t
+    assert any(out[3].any() for out in outs[0] if len(out) == 4)  # an episode ended (autoreset at the next step)
+    for vector in vectors:
+        vector.close()

@@ -48,7 +48,8 @@ from machine import cpu_model  # noqa: E402  (benchmarks/ is the script's direct
 
 import dcs_torchrl as dcs  # noqa: E402
 from dcs_torchrl.presets import action_repeat  # noqa: E402
-from dcs_torchrl.vector.batch_physics import BatchPhysics, physics_threads  # noqa: E402
+from dcs_torchrl.vector._batching import shares  # noqa: E402
+from dcs_torchrl.vector.batch_physics import BatchPhysics, physics_threads, threads_among  # noqa: E402
 from dcs_torchrl.vector.batched import BatchedSuiteEnv  # noqa: E402
 from dcs_torchrl.vector.task_arrays import TASKS, task_arrays  # noqa: E402
 
@@ -143,11 +144,11 @@ def main():
                 rate = statistics.median(values)
                 ratio = f"{rate / base:.2f}" if base else "n/a"
                 timed = paths[name]
-                shares = " | " * 2
+                where = " | " * 2
                 if isinstance(timed.env, BatchedSuiteEnv):
-                    shares = " | ".join(f"{part / timed.total_s:.0%}"
+                    where = " | ".join(f"{part / timed.total_s:.0%}"
                                         for part in (timed.physics_s, timed.scene_s, timed.render_s))
-                print(f"| {name} | {rate:.0f} ({min(values):.0f}-{max(values):.0f}) | {ratio} | {shares} |")
+                print(f"| {name} | {rate:.0f} ({min(values):.0f}-{max(values):.0f}) | {ratio} | {where} |")
             for timed in paths.values():
                 timed.env.close()
 
@@ -271,12 +272,11 @@ class ProcessesTimed:
         import multiprocessing as mp
 
         ctx = mp.get_context("spawn")
-        shares = [round((k + 1) * n / processes) - round(k * n / processes) for k in range(processes)]
         self.pipes, self.procs = [], []
-        for share in shares:
+        for share in shares(n, processes):
             here, there = ctx.Pipe()
-            threads = 1 if physics_threads() <= processes else None  # as make_env(..., processes=P) steps them
-            proc = ctx.Process(target=_physics_share, args=(domain, task, share, threads, there), daemon=True)
+            proc = ctx.Process(target=_physics_share, args=(domain, task, len(share), threads_among(processes), there),
+                               daemon=True)
             proc.start()
             self.pipes.append(here)
             self.procs.append(proc)

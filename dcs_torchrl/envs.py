@@ -229,13 +229,12 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
         raise ValueError("backend='warp' renders a batch: pass num_envs=N (an env of batch size [N]; N=1 for one "
                          "env), or backend='gl' (the default) for one unbatched env.")
     if o.backend == "warp" and (o.processes or 1) > 1:  # P batches, one per process: a chain of batches
-        from dcs_torchrl.vector.batch_physics import physics_threads
+        from dcs_torchrl.vector._batching import shares
+        from dcs_torchrl.vector.batch_physics import threads_among
         from dcs_torchrl.vector.parallel import ParallelSuiteEnv
 
-        sizes = [round((k + 1) * o.num_envs / o.processes) - round(k * o.num_envs / o.processes)
-                 for k in range(o.processes)]
-        # a process with a core or less of its own steps its physics in one thread; else chosen by measurement
-        threads = 1 if physics_threads() <= o.processes else None
+        sizes = [len(part) for part in shares(o.num_envs, o.processes)]
+        threads = threads_among(o.processes)
         share = dataclasses.replace(o, seed=None, processes=None)
         env = ParallelSuiteEnv(o.processes, [functools.partial(_warp_share, s, share, k, threads) for k in sizes],
                                envs_per_worker=sizes, device=o.device)

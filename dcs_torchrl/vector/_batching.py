@@ -1,5 +1,5 @@
-"""What every batch of suite envs does alike (the Warp batch, the process env): TorchRL's seed chain and
-its partial masks, spelled once.
+"""What every batch of suite envs does alike (the Warp batch, the process env): TorchRL's seed chain, its
+partial masks, the split of n envs into near-equal contiguous shares and closing once, spelled once.
 
 TorchRL's batched envs seed worker ``i`` with what worker ``i - 1``'s ``set_seed`` returns
 (:func:`chain_seeds`); a ``"_reset"`` or ``"_step"`` entry marks the envs a reset or a step acts on, all
@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterable
 
 from tensordict import TensorDictBase
 
-__all__ = ["chain_seeds", "marked"]
+__all__ = ["chain_seeds", "close_once", "marked", "shares"]
 
 
 def chain_seeds(set_seeds: Iterable[Callable[[int | None], int | None]], seed: int | None) -> int | None:
@@ -29,3 +29,20 @@ def marked(tensordict: TensorDictBase | None, key: str, n: int) -> list[int]:
     if mask is None:
         return list(range(n))
     return mask.reshape(n, -1).any(-1).nonzero().flatten().tolist()
+
+
+def shares(n: int, parts: int) -> list[range]:
+    """``n`` envs in ``min(parts, n)`` contiguous, near-equal ranges (n = 3, parts = 2: 0-1 and 2)."""
+    parts = min(parts, n)
+    bounds = [round(k * n / parts) for k in range(parts + 1)]
+    return [range(a, b) for a, b in zip(bounds, bounds[1:])]
+
+
+def close_once(env, raise_if_closed: bool) -> bool:
+    """Marks ``env`` closed; ``False`` where it was already (a RuntimeError instead with ``raise_if_closed``)."""
+    if env.is_closed:
+        if raise_if_closed:
+            raise RuntimeError(f"{type(env).__name__} is closed already.")
+        return False
+    env.is_closed = True
+    return True

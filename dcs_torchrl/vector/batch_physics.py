@@ -27,9 +27,10 @@ import numpy as np
 from dm_control.rl.control import PhysicsError
 
 from dcs_torchrl._compat.private_api import episode_clock, set_episode_clock, sub_steps
+from dcs_torchrl.vector._batching import shares
 from dcs_torchrl.vector.task_arrays import Ids, TaskArrays
 
-__all__ = ["BatchPhysics", "RETUNE", "TRIALS", "physics_threads"]
+__all__ = ["BatchPhysics", "RETUNE", "TRIALS", "physics_threads", "threads_among"]
 
 #: Steps each thread count is tried on when :class:`BatchPhysics` chooses its threads.
 TRIALS = 5
@@ -41,6 +42,12 @@ RETUNE = 200
 def physics_threads() -> int:
     """The threads :class:`BatchPhysics` steps a batch's physics in by default: the cores this process may use."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def threads_among(processes: int) -> int | None:
+    """The physics threads of each of ``processes`` batches stepped at once on this machine: one where a
+    process has a core or less of its own (more only oversubscribe the cores), else ``None`` (chosen)."""
+    return 1 if physics_threads() <= processes else None
 
 
 class BatchPhysics:
@@ -168,9 +175,7 @@ class BatchPhysics:
         self._timings = {self.threads: []}
 
     def _parts(self, n: int) -> list[slice]:
-        parts = min(self.threads, n)
-        bounds = [round(k * n / parts) for k in range(parts + 1)]
-        return [slice(a, b) for a, b in zip(bounds, bounds[1:])]
+        return [slice(part.start, part.stop) for part in shares(n, self.threads)]
 
     def _run(self, indices: np.ndarray, actions: np.ndarray, steps: np.ndarray, part: slice) -> None:
         """The control steps of envs ``indices`` (one thread), recorded in rows ``part`` of :attr:`record`."""

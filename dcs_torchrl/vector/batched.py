@@ -39,7 +39,7 @@ from dcs_torchrl.distractions import BackgroundDistraction
 from dcs_torchrl.distractions.base import DistractionTransform
 from dcs_torchrl.render.gl import check_profile
 from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer, skybox_faces
-from dcs_torchrl.vector._batching import chain_seeds, marked
+from dcs_torchrl.vector._batching import chain_seeds, close_once, marked, shares
 from dcs_torchrl.vector.batch_physics import BatchPhysics
 from dcs_torchrl.vector.task_arrays import task_arrays
 
@@ -71,9 +71,7 @@ def _chunks(n: int, parts: int | None) -> list[range]:
     parts = RENDER_CHUNKS if parts is None else parts
     if isinstance(parts, bool) or not isinstance(parts, int) or parts < 1:
         raise ValueError(f"render_chunks must be a positive integer (or None), got {parts!r}.")
-    parts = min(parts, n)
-    bounds = [round(k * n / parts) for k in range(parts + 1)]
-    return [range(a, b) for a, b in zip(bounds, bounds[1:])]
+    return shares(n, parts)
 
 
 _SKYBOX_ASSET = "./common/skybox.xml"  # dm_control's suite models include it (800 x 800 texels a face)
@@ -472,11 +470,8 @@ class BatchedSuiteEnv(EnvBase):
             raise RuntimeError("this BatchedSuiteEnv is closed: build a new one with make_env.")
 
     def close(self, *, raise_if_closed: bool = True) -> None:
-        if self.is_closed:
-            if raise_if_closed:
-                raise RuntimeError("BatchedSuiteEnv is closed already.")
+        if not close_once(self, raise_if_closed):
             return
-        self.is_closed = True
         if self._pool is not None:
             self._pool.shutdown()
         if self.physics is not None:

@@ -37,7 +37,7 @@ from torchrl.envs import EnvBase
 
 from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.render.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
-from dcs_torchrl.vector._batching import chain_seeds, marked
+from dcs_torchrl.vector._batching import chain_seeds, close_once, marked
 from dcs_torchrl.vector._threads import torch_threads
 
 __all__ = ["ParallelSuiteEnv"]
@@ -148,7 +148,6 @@ class ParallelSuiteEnv(EnvBase):
         super().__init__(batch_size=[size], device=_BUFFERS if device is None else device)
         self.num_workers = num_workers
         self._rows = rows  # worker i's envs: its row (an int) or its rows (a slice) of the batch
-        self._owners = torch.tensor([i for i, r in enumerate(rows) for _ in _range(r)])  # each env's worker
         self._render_devices = devices
         self._spin_s = float(spin_s)
         self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
@@ -199,14 +198,15 @@ class ParallelSuiteEnv(EnvBase):
             spec = specs[name][0] if batched else specs[name]  # one env's, from worker 0's batch
             setattr(self, name, spec.expand(n, *spec.shape).to(_BUFFERS))
 
-    def _workers(self, tensordict: TensorDictBase | None, key: str) -> list[int]:
-        """The workers with an env that ``key`` (``"_step"``, ``"_reset"``) of ``tensordict`` marks (all
-        without one); a batch worker finds in the shared buffers which of its envs."""
-        envs = marked(tensordict, key, self.batch_size[0])
+    def _mark(self, tensordict: TensorDictBase | None, key: str) -> tuple[torch.Tensor, list[int]]:
+        """Which envs ``key`` (``"_step"``, ``"_reset"``) of ``tensordict`` marks (all without one), bool
+        ``[batch]``, and the workers holding any of them; a batch worker reads its own part of the mask
+        from the shared buffers."""
+        mask = torch.zeros(self.batch_size, dtype=torch.bool)
+        mask[marked(tensordict, key, self.batch_size[0])] = True
         if key in self._buffers.keys():
-            self._buffers[key].zero_()
-            self._buffers[key][envs] = True
-        return sorted(set(self._owners[envs].tolist()))
+            self._buffers[key].copy_(mask)
+        return mask, [i for i, rows in enumerate(self._rows) if mask[rows].any()]
 
     # ------------------------------------------------------------- TorchRL hooks
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -214,13 +214,9 @@ class ParallelSuiteEnv(EnvBase):
         for the envs still running); an env not stepped keeps its last observation and done flags,
         with reward 0, as the batched env's."""
         self._buffers["action"].update_(tensordict.select(*self.action_keys))
-        workers = self._workers(tensordict, "_step")
+        stepped, workers = self._mark(tensordict, "_step")
         self._command(_STEP, workers)
         out = _copy(self._buffers["next"])
-        if "_step" in self._buffers.keys():  # each worker's env a batch: the envs marked
-            stepped = self._buffers["_step"]
-        else:
-            stepped = torch.isin(self._owners, torch.tensor(workers, dtype=torch.long))
         if not stepped.all():
             skipped = ~stepped
             for key in self.reward_keys:
@@ -230,7 +226,7 @@ class ParallelSuiteEnv(EnvBase):
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         if kwargs:
             raise TypeError(f"ParallelSuiteEnv.reset takes no keyword arguments, got {sorted(kwargs)}.")
-        workers = self._workers(tensordict, "_reset")
+        _, workers = self._mark(tensordict, "_reset")
         self._command(_RESET, workers)
         out = _copy(self._buffers["next"].select(*self.observation_keys, *self.done_keys))
         return out.to(self.device)  # no copy on the buffers' device
@@ -253,11 +249,8 @@ class ParallelSuiteEnv(EnvBase):
         raise NotImplementedError
 
     def close(self, *, raise_if_closed: bool = True) -> None:
-        if self.is_closed:
-            if raise_if_closed:
-                raise RuntimeError("ParallelSuiteEnv is closed already.")
+        if not close_once(self, raise_if_closed):
             return
-        self.is_closed = True
         pipes, procs = [p for p in self._pipes if p is not None], [p for p in self._procs if p is not None]
         for pipe in pipes:
             try:
@@ -374,10 +367,6 @@ def _rows(envs_per_worker: Sequence[int] | None, num_workers: int) -> tuple[list
                          f"size), got {envs_per_worker!r}.")
     bounds = [sum(sizes[:i]) for i in range(num_workers + 1)]
     return [slice(a, b) for a, b in zip(bounds, bounds[1:])], bounds[-1]
-
-
-def _range(rows) -> range:
-    return range(rows, rows + 1) if isinstance(rows, int) else range(rows.start, rows.stop)
 
 
 def _build(create_env_fn: Callable[[], EnvBase], rows) -> EnvBase:

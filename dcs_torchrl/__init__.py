@@ -36,6 +36,7 @@ _PUBLIC = {
     "resolve_settings": "dcs_torchrl.envs",
     "ParallelSuiteEnv": "dcs_torchrl.vector.parallel",
     "RenderPixels": "dcs_torchrl.render.gl",
+    "WorkerDiedError": "dcs_torchrl.vector.process_pool",
 }
 
 

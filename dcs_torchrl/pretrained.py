@@ -17,6 +17,12 @@ finished run, and :func:`load_pretrained` gives the policy and envs it acts on:
 >>> agent = load_pretrained("recipes/pretrained/sac_rad_cartpole_swingup")  # doctest: +SKIP
 >>> env = agent.make_env(camera_scale=0.3, dynamic=True, seed=0)  # doctest: +SKIP
 >>> td = env.rollout(125, agent.policy)  # doctest: +SKIP
+
+A checkpoint loads with ``torch.load(..., weights_only=True)``: an agent whose checkpoint holds
+more than tensors, numbers and strings (unpickling it could run code) is refused with an
+:class:`~dcs_torchrl.training.checkpoint.UntrustedCheckpointError`; ``trust_checkpoint=True``
+(``--trust-checkpoint`` on the command lines) loads it, for an agent of a source you trust.
+Exporting such a run with ``--trust-checkpoint`` writes an agent that loads without it.
 """
 from __future__ import annotations
 
@@ -28,8 +34,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Pretrained", "agent_directory", "agent_env_settings", "agent_results", "checkpoint_sha256",
-           "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
+__all__ = ["Pretrained", "agent_checkpoint", "agent_directory", "agent_env_settings", "agent_results",
+           "checkpoint_sha256", "export_policy", "load_policy_state", "load_pretrained", "shipped_agents"]
 
 _PACKAGE = Path(__file__).resolve().parent
 # Where the shipped agents are: inside an installed wheel (pyproject.toml maps recipes/pretrained
@@ -122,18 +128,36 @@ def load_policy_state(agent, state: dict) -> None:
         raise KeyError(f"a checkpoint holds 'agent' (training) or 'policy' (exported), got {sorted(state)}.")
 
 
-def export_policy(run_dir: str | os.PathLike, out_dir: str | os.PathLike) -> Path:
-    """Writes ``run_dir``'s final acting networks to ``out_dir`` (which must not exist yet)."""
-    from dcs_torchrl.training.checkpoint import load_latest, save_checkpoint
+def agent_checkpoint(agent: str | os.PathLike, *, final: bool = False,
+                     trust_checkpoint: bool = False) -> tuple[int, dict]:
+    """The ``(frames, state)`` of the checkpoint :func:`load_pretrained` loads for ``agent``: the
+    newest that verifies; ``final=True`` refuses one that is not the run's last (``results.json``'s
+    frames). One that holds more than ``weights_only=True`` reads is refused
+    (:class:`~dcs_torchrl.training.checkpoint.UntrustedCheckpointError`) unless ``trust_checkpoint``."""
+    from dcs_torchrl.training.checkpoint import load_latest
+
+    path = agent_directory(agent)
+    results = agent_results(path)
+    loaded = load_latest(path / "checkpoints", trust=trust_checkpoint)
+    if loaded is None:
+        raise FileNotFoundError(f"{path}/checkpoints holds no checkpoint that verifies.")
+    if final and loaded[0] != results["steps"]:
+        raise RuntimeError(f"{path}: the newest checkpoint ({loaded[0]} frames) is not the final one "
+                           f"({results['steps']} frames, results.json).")
+    return loaded
+
+
+def export_policy(run_dir: str | os.PathLike, out_dir: str | os.PathLike, *, trust_checkpoint: bool = False) -> Path:
+    """Writes ``run_dir``'s final acting networks to ``out_dir`` (which must not exist yet), as
+    tensors only (it loads with ``weights_only=True`` even where ``run_dir``'s checkpoint needed
+    ``trust_checkpoint=True``)."""
+    from dcs_torchrl.training.checkpoint import save_checkpoint
 
     run_dir, out_dir = Path(run_dir), Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"{out_dir} exists: export into a new directory (nothing is overwritten).")
     results = agent_results(run_dir)
-    loaded = load_latest(run_dir / "checkpoints")
-    if loaded is None or loaded[0] != results["steps"]:
-        raise RuntimeError(f"{run_dir}: the newest checkpoint ({loaded and loaded[0]} frames) is not the final one "
-                           f"({results['steps']} frames).")
+    loaded = agent_checkpoint(run_dir, final=True, trust_checkpoint=trust_checkpoint)
     agent, _ = _build_agent(results)
     load_policy_state(agent, loaded[1])
     out_dir.mkdir(parents=True)
@@ -261,21 +285,19 @@ def _per_group(policy, sizes: list[int]):
     return act
 
 
-def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False) -> Pretrained:
+def load_pretrained(agent: str | os.PathLike, device: str = "cpu", *, final: bool = False,
+                    trust_checkpoint: bool = False) -> Pretrained:
     """Loads an exported agent, a finished run's newest checkpoint or a shipped agent by name
     (:func:`agent_directory`) as a TorchRL policy; ``final=True`` refuses a checkpoint that is
-    not the run's last (``results.json``'s frames)."""
-    from dcs_torchrl.training.checkpoint import load_latest
+    not the run's last (``results.json``'s frames). A checkpoint that holds more than tensors,
+    numbers and strings is refused
+    (:class:`~dcs_torchrl.training.checkpoint.UntrustedCheckpointError`): ``trust_checkpoint=True``
+    unpickles it as it is, which runs whatever it names; only for an agent of a source you trust."""
     from dcs_torchrl.training.loop import acting_on
 
     path = agent_directory(agent)
     results = agent_results(path)
-    loaded = load_latest(path / "checkpoints")
-    if loaded is None:
-        raise FileNotFoundError(f"{path}/checkpoints holds no checkpoint that verifies.")
-    if final and loaded[0] != results["steps"]:
-        raise RuntimeError(f"{path}: the newest checkpoint ({loaded[0]} frames) is not the final one "
-                           f"({results['steps']} frames, results.json).")
+    loaded = agent_checkpoint(path, final=final, trust_checkpoint=trust_checkpoint)
     built, cfg = _build_agent(results, device)
     load_policy_state(built, loaded[1])
     return Pretrained(acting_on(built.policy, device), results, cfg)
@@ -285,8 +307,12 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description="Export a finished run's acting networks (no replay, no optimisers).")
     parser.add_argument("run_dir", help="a finished training run (results.json and its final checkpoint)")
     parser.add_argument("out_dir", help="a new directory, e.g. recipes/pretrained/<name>")
+    parser.add_argument("--trust-checkpoint", action="store_true",
+                        help="load a checkpoint that holds more than tensors, numbers and strings (unpickling it "
+                             "can run code: only a run of a source you trust); the export holds tensors only "
+                             "(default: refused)")
     args = parser.parse_args(argv)
-    out = export_policy(args.run_dir, args.out_dir)
+    out = export_policy(args.run_dir, args.out_dir, trust_checkpoint=args.trust_checkpoint)
     size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     print(f"wrote {out} ({size / 1e6:.1f} MB)")
 

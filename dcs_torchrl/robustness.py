@@ -21,7 +21,9 @@ every resolved env setting (a changed default included) and the videos shown (th
 stand-ins' version, or a ``--background-dir``'s path and a digest of its files' names and
 sizes); otherwise the point is evaluated again, and the CSV, table and figure hold only this
 run's points. An ``--out`` holding another agent's points, or this agent's from another
-checkpoint (retrained under the same name), is refused: choose another ``--out``.
+checkpoint (retrained under the same name), is refused: choose another ``--out``. An agent whose
+checkpoint holds more than tensors, numbers and strings (unpickling it could run code) is refused
+unless ``--trust-checkpoint`` (:func:`dcs_torchrl.pretrained.load_pretrained`).
 :func:`robustness_sweep` does the same for any TorchRL policy and env factory.
 """
 from __future__ import annotations
@@ -109,6 +111,9 @@ def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float]
     bad = [v for v in values if not 0.0 <= v <= 1.0]
     if bad or not values:
         raise ValueError(f"intensities must be in [0, 1] (at least one), got {values}.")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise ValueError(f"intensities {repeated} are given more than once: give each once.")
     blends = {False: (False,), True: (True,), "both": (False, True)}[reference_blend]
     return [Point(axis, value, dynamic, blend) for axis in axes for blend in (blends if axis == "background" else (False,))
             for dynamic in SETTINGS[setting] for value in values]
@@ -285,7 +290,7 @@ def _background(background_dir: str | os.PathLike | None, num_videos: int | None
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
                 workers: int = 1, background_dir: str | os.PathLike | None = None, num_videos: int | None = None,
                 progress: bool = True, render_devices: Sequence[int | str] | None = None,
-                backend: str = "gl") -> list[dict]:
+                backend: str = "gl", trust_checkpoint: bool = False) -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
     Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
@@ -302,6 +307,8 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     folder that holds fewer). ``backend="warp"``: several points' episodes all at once, in one batched
     env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate_each`: each point's
     returns those of its own ``evaluate(backend="warp")``); its points are stored apart from GL's.
+    ``trust_checkpoint``: as :func:`~dcs_torchrl.pretrained.load_pretrained` (off: an agent whose
+    checkpoint holds more than tensors, numbers and strings is refused).
 
     Returns:
         the rows of ``points`` only (:func:`write_outputs`).
@@ -328,7 +335,7 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     todo = {key: overrides for key, overrides in settings.items() if _point_id(identities[key]) not in done}
     bar = _progress(list(todo), progress, f"robustness ({backend})")
     for key, result, _ in evaluate_settings(directory, todo, episodes, processes=workers, render_devices=devices,
-                                            backend=backend):
+                                            backend=backend, trust_checkpoint=trust_checkpoint):
         point_id = _point_id(identities[key])
         done[point_id] = result
         write_json_atomic(stored / f"{point_id[:16]}.json", {**identities[key], "overrides": todo[key], "eval": result})
@@ -374,7 +381,8 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
          "method": method, "value": r["value"], "mean": r["mean"], "stderr": r["stderr"], "n": 1, "n_tasks": 1,
          "blend": BLEND_2021 if r["reference_blend"] else "paper"} for r in rows])
     half = half_score_table(curves)
-    half_rows = [[r.axis + blend_suffix(r.blend), setting_name(r.dynamic), fmt_score(r.score_at_0),
+    named = {report_axis: axis for axis, report_axis in AXES.items()}  # the command's names, as the CSV's and below
+    half_rows = [[named[r.axis] + blend_suffix(r.blend), setting_name(r.dynamic), fmt_score(r.score_at_0),
                   half_text(r), r.paper or "—"] for r in half.itertuples()]
     point_rows = [[r["axis"] + (" (2021 blend)" if r["reference_blend"] else ""), r["setting"], f"{r['value']:g}",
                    fmt_score(r["mean"], r["stderr"]), str(r["episodes"])] for r in rows]
@@ -448,6 +456,9 @@ def _parser() -> argparse.ArgumentParser:
                              "name it: compare scores on one renderer only (default: %(default)s)")
     parser.add_argument("--out", default=None, help="output directory (default: robustness/<agent name>); one "
                                                     "agent's checkpoint per directory")
+    parser.add_argument("--trust-checkpoint", action="store_true",
+                        help="load an agent whose checkpoint holds more than tensors, numbers and strings: unpickling "
+                             "it can run code, so only for an agent of a source you trust (default: refused)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar (default: a bar on stderr)")
     return parser
 
@@ -461,7 +472,7 @@ def main(argv=None) -> dict[str, Path]:
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
                        background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress,
-                       render_devices=args.render_devices, backend=args.backend)
+                       render_devices=args.render_devices, backend=args.backend, trust_checkpoint=args.trust_checkpoint)
     videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
     videos += f", b = {args.num_videos} videos" if args.num_videos is not None else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "

@@ -308,7 +308,8 @@ def test_behaviour_cloning_learns_the_sets_actions_and_is_scored_by_the_suites_e
 def test_info_says_what_a_set_holds(small_set, capsys):
     main(["info", str(small_set)])
     line = capsys.readouterr().out
-    assert f"{EPISODES} episodes, {EPISODES * SET['max_steps']} transitions" in line and "(medium, dynamic)" in line
+    assert f"{EPISODES} episodes, {EPISODES * SET['max_steps']} transitions" in line
+    assert "(medium, dynamic; 32x32, GL renderer, no masks)" in line  # the Warp set's: tests/test_datasets_warp.py
     main(["info", str(small_set), "--json"])
     record = json.loads(capsys.readouterr().out)
     assert record["env"]["benchmark"] == "medium" and "episode_table" not in record
@@ -394,19 +395,27 @@ def test_a_finished_read_only_set_with_nothing_to_do_succeeds_without_writing(sm
     assert before == {p: (p.stat().st_mtime_ns, p.stat().st_size) for p in out.rglob("*")}
 
 
-def test_an_out_naming_a_file_is_refused_with_the_fix(small_set, tmp_path):
+def test_a_file_for_a_folder_or_a_folder_without_a_set_is_refused_with_the_fix(small_set, tmp_path):
     path = tmp_path / "a_file"
     path.write_text("mine")
     command = ["--domain", "cartpole", "--task", "swingup", "--episodes", "1", "--out", str(path)]
-    with pytest.raises(SystemExit, match="--out .*a_file is a file, not a folder: give a new folder's path"):
+    with pytest.raises(SystemExit, match=r"--out .*a_file is a file, not a folder: give a new folder's path \(or a "
+                                         r"set's folder\)\.$"):
         main(["generate", *command])
-    with pytest.raises(SystemExit, match="is a file, not a folder"):
+    with pytest.raises(SystemExit, match="--out .*a_file is a file, not a folder: give a new folder's path\\.$"):
         main(["export", str(small_set), "--format", "vd4rl-npz", "--out", str(path)])
+    for run in (["info", str(path)], ["export", str(path), "--format", "vd4rl-npz", "--out", str(tmp_path / "out")]):
+        with pytest.raises(SystemExit, match="the set .*a_file is a file, not a folder: give a set's folder\\.$"):
+            main(run)
+    metadata = re.escape(str(tmp_path / "metadata.json"))
+    with pytest.raises(SystemExit, match=f"holds no dataset \\({metadata} is missing\\): make one with: python -m "
+                                         "dcs_torchrl.datasets generate \\.\\.\\. --out "):
+        main(["info", str(tmp_path)])
     assert path.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
 
 
-def test_info_on_an_unfinished_set_names_its_whole_episodes_and_the_command_that_resumes_it(small_set, tmp_path,
-                                                                                            monkeypatch, capsys):
+def test_info_load_and_export_of_an_unfinished_set_name_the_command_that_resumes_it(small_set, tmp_path, monkeypatch,
+                                                                                    capsys):
     out = tmp_path / "unfinished"
     killed_at(monkeypatch, 2)
     with pytest.raises(KeyboardInterrupt):
@@ -415,8 +424,16 @@ def test_info_on_an_unfinished_set_names_its_whole_episodes_and_the_command_that
     main(["info", str(out)])
     line = capsys.readouterr().out.strip()
     assert f"unfinished: 2 whole episodes of the {EPISODES} asked" in line and "resume it with: python -m" in line
-    command = shlex.split(line.split("resume it with: ")[1])
+    resume = line.split("resume it with: ")[1]
+    command = shlex.split(resume)
     assert command[:3] == ["python", "-m", "dcs_torchrl.datasets"]
+    missing = f"{out} is an unfinished dataset ({out / 'data' / 'episodes.json'} is missing: a generate run was stopped"
+    for run in (lambda: load(out, batch_size=2), lambda: main(["export", str(out), "--format", "vd4rl-npz", "--out",
+                                                                  str(tmp_path / "export")])):
+        with pytest.raises((FileNotFoundError, SystemExit), match=re.escape(missing)) as refused:
+            run()
+        assert str(refused.value).endswith(f"resume it with: {resume}")  # the command info prints
+    assert not (tmp_path / "export").exists()
     main(command[3:] + ["--no-progress"])  # the printed command finishes the set: the uncut run's
     assert (load_data(out) == load_data(small_set)).all()
     main(["info", str(out)])

@@ -25,12 +25,14 @@ def sets(tmp_path_factory):
     return root / "gl", root / "warp", gl
 
 
-def test_the_warp_set_holds_the_gl_sets_episodes_where_the_renderer_does_not_enter(sets):
+def test_the_warp_set_holds_the_gl_sets_episodes_where_the_renderer_does_not_enter(sets, capsys):
     gl_path, warp_path, gl = sets
     from dcs_torchrl.datasets.layout import read_json
 
     warp = read_json(warp_path / "metadata.json")
     assert warp["pixels"] == gl["pixels"] | {"backend": "warp", "masks": True}
+    main(["info", str(warp_path)])  # the renderer and the masks: part of the set's identity
+    assert "(medium, dynamic; 32x32, Warp renderer, with masks)" in capsys.readouterr().out
     assert warp["keys"]["transitions"] == gl["keys"]["transitions"]
     ours, theirs = load_data(warp_path)["transitions"], load_data(gl_path)["transitions"]
     assert ours.shape == theirs.shape == (WARP_EPISODES * SET["max_steps"],)

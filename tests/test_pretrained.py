@@ -5,6 +5,7 @@ SAC+RAD trained from the suite's pixels on each of the paper's six tasks, seed 0
 sees makes it fail here.
 """
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +16,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from dcs_torchrl.evaluation.protocol import EVAL_THREADS, evaluate
 from dcs_torchrl.pretrained import load_pretrained, shipped_agents
+from dcs_torchrl.training.checkpoint import UntrustedCheckpointError, list_checkpoints, save_checkpoint
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "recipes/pretrained/sac_rad_cartpole_swingup"
@@ -23,6 +25,26 @@ AGENT = ROOT / "recipes/pretrained/sac_rad_cartpole_swingup"
 RANDOM_POLICY = {("cartpole", "swingup"): 125.0, ("ball_in_cup", "catch"): 27.1, ("cheetah", "run"): 13.9,
                  ("finger", "spin"): 1.5, ("reacher", "easy"): 53.0, ("walker", "walk"): 40.4}
 SHIPPED = sorted(shipped_agents())
+
+
+class CreatesFile:
+    """Unpickled, it creates ``path`` (``open(path, "w")``): the stand-in for a checkpoint that runs code."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return open, (self.path, "w")
+
+
+def agent_that_runs_code(directory: Path, marker: Path, agent: Path = AGENT) -> Path:
+    """A copy of ``agent`` at ``directory`` whose checkpoint, beside the networks and with a matching
+    .sha256 file, holds an object that creates ``marker`` when unpickled."""
+    shutil.copytree(agent, directory)
+    ((frames, path),) = list_checkpoints(directory / "checkpoints")
+    state = torch.load(path, weights_only=True)
+    save_checkpoint(directory / "checkpoints", frames, {**state, "payload": CreatesFile(marker)}, keep=1)
+    return directory
 
 
 def test_every_agent_is_shipped_with_its_random_baseline():
@@ -38,7 +60,7 @@ def test_shipped_agent_is_small_and_networks_only(name):
     files = [p for p in directory.rglob("*") if p.is_file()]
     assert sum(p.stat().st_size for p in files) <= 15e6
     (checkpoint,) = directory.glob("checkpoints/checkpoint_*.pt")
-    state = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    state = torch.load(checkpoint, map_location="cpu", weights_only=True)  # as load_pretrained reads it: no pickles
     assert set(state) == {"policy"}  # no replay buffer, no optimiser state, no critics
 
 
@@ -157,6 +179,53 @@ def test_evaluate_recipe_on_the_shipped_agent(tmp_path):
     results = json.loads((out / "results.json").read_text())
     assert results["eval"]["episodes"] == 1 and results["eval_env"]["camera_scale"] == 0.3
     assert results["method"] == "SAC+RAD"
+
+
+def test_an_agent_whose_checkpoint_would_run_code_is_refused_unless_trusted(tmp_path):
+    """Its checksum matches (it proves integrity, not trust): load_pretrained refuses it naming what
+    it holds and runs nothing; trust_checkpoint=True loads it, and its export holds the networks
+    only, which load without trust."""
+    from dcs_torchrl.pretrained import export_policy
+
+    marker = tmp_path / "ran"
+    agent = agent_that_runs_code(tmp_path / "agent", marker)
+    with pytest.raises(UntrustedCheckpointError, match=r"\(io\.open\).*trust_checkpoint=True"):
+        load_pretrained(agent)
+    assert not marker.exists()
+    with pytest.raises(UntrustedCheckpointError):
+        export_policy(agent, tmp_path / "exported")
+    assert not marker.exists() and not (tmp_path / "exported").exists()
+    trusted = load_pretrained(agent, trust_checkpoint=True).policy.state_dict()
+    assert marker.exists()
+    marker.unlink()
+    exported = export_policy(agent, tmp_path / "exported", trust_checkpoint=True)
+    assert marker.exists()
+    marker.unlink()
+    shipped = torch.load(list_checkpoints(AGENT / "checkpoints")[-1][1], weights_only=True)["policy"]
+    safe = load_pretrained(exported).policy.state_dict()
+    assert not marker.exists() and shipped.keys() == trusted.keys() == safe.keys()
+    assert all(torch.equal(shipped[k], trusted[k]) and torch.equal(shipped[k], safe[k]) for k in shipped)
+
+
+def test_the_evaluate_recipe_refuses_an_agent_whose_checkpoint_would_run_code_unless_trusted(tmp_path):
+    """evaluate_checkpoint (the recipe's and the experiments' evaluation) refuses it, nothing run;
+    the recipe with checkpoint.trust=true evaluates it."""
+    from dcs_torchrl.experiments.evaluate import evaluate_checkpoint
+    from dcs_torchrl.experiments.grid import Evaluation
+
+    marker = tmp_path / "ran"
+    agent = agent_that_runs_code(tmp_path / "agent", marker)
+    evaluation = Evaluation("", "robustness", {"action_repeat": 100}, None)
+    with pytest.raises(UntrustedCheckpointError, match="checkpoint.trust=true"):
+        evaluate_checkpoint(agent, [(tmp_path / "refused", evaluation)], settings={"eval.episodes": 1})
+    assert not marker.exists() and not (tmp_path / "refused" / "results.json").exists()
+    out = tmp_path / "eval"
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "recipes/evaluate/evaluate.py"), f"train_dir={agent}", "checkpoint.trust=true",
+         "eval_env.action_repeat=100", "eval.episodes=1", f"hydra.run.dir={out}"],
+        capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert marker.exists() and json.loads((out / "results.json").read_text())["eval"]["episodes"] == 1
 
 
 def test_export_refuses_to_overwrite(tmp_path):

@@ -7,6 +7,8 @@ import pytest
 from dcs_torchrl.pretrained import load_pretrained, shipped_agents
 from dcs_torchrl.robustness import (RENDERERS, Point, _parser, main, robustness_sweep, sweep_agent, sweep_points,
                                     write_outputs)
+from dcs_torchrl.training.checkpoint import UntrustedCheckpointError
+from test_pretrained import agent_that_runs_code
 
 AGENT = "sac_rad_cartpole_swingup"
 
@@ -35,6 +37,8 @@ def test_points_share_the_undistracted_env_and_validate():
         sweep_points(["colour"])
     with pytest.raises(ValueError, match=r"in \[0, 1\]"):
         sweep_points(["camera"], [0.0, 1.5])
+    with pytest.raises(ValueError, match=r"intensities \[0.5\] are given more than once"):
+        sweep_points(["camera"], [0.5, 0.0, 0.5])
     with pytest.raises(ValueError, match="unknown setting"):
         sweep_points(["camera"], [0.0], "moving")
     with pytest.raises(FileNotFoundError, match="sac_rad_cartpole_swingup"):
@@ -63,7 +67,7 @@ def test_workers_give_every_episode_the_return_of_a_single_env_evaluation(tmp_pa
         def __init__(self, processes, *, environment, initargs, **kwargs):
             pools.append((environment[EGL_DEVICE_VARIABLE], processes))
             super().__init__(processes, environment={**environment, EGL_DEVICE_VARIABLE: 0},
-                             initargs=(*initargs[:-1], 0), **kwargs)
+                             initargs=(*initargs[:3], 0, *initargs[4:]), **kwargs)  # render: the 4th
 
     with monkeypatch.context() as device:
         device.setattr(process_pool, "SpawnedPool", OnDeviceZero)
@@ -98,6 +102,46 @@ def test_command_writes_table_csv_and_figure(tmp_path, capsys, short_agent):
     assert [(r["axis"], r["value"]) for r in rows] == [("color", "0.0"), ("color", "1.0")]
     assert "half at" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
     assert "Where the score falls to half" in capsys.readouterr().out
+
+
+def test_the_command_refuses_an_agent_whose_checkpoint_would_run_code_unless_trusted(tmp_path, monkeypatch,
+                                                                                   short_agent):
+    """Refused in this process (--workers 1) and before any process starts (--workers 2), nothing run;
+    with --trust-checkpoint it loads, here and in each process it starts (their start run here)."""
+    from dcs_torchrl.evaluation import scheduling
+    from dcs_torchrl.vector import process_pool
+
+    marker = tmp_path / "ran"
+    agent = agent_that_runs_code(tmp_path / "agent", marker, short_agent)
+    command = [str(agent), "--axes", "color", "--episodes", "1", "--out", str(tmp_path / "out"), "--no-progress",
+               "--intensities", "0", "1"]
+    for workers in ("1", "2"):
+        with pytest.raises(UntrustedCheckpointError, match=r"\(io\.open\).*--trust-checkpoint"):
+            main([*command, "--workers", workers])
+        assert not marker.exists()
+
+    class Started(Exception):
+        pass
+
+    starts = []
+
+    class StartsRecorded(process_pool.SpawnedPool):
+        def __init__(self, processes, *, initializer, initargs, **kwargs):
+            starts.append((initializer, initargs))
+            raise Started
+
+    with monkeypatch.context() as recorded:
+        recorded.setattr(process_pool, "SpawnedPool", StartsRecorded)
+        recorded.setattr(scheduling, "_WORKER_AGENT", None)
+        with pytest.raises(Started):
+            main([*command, "--workers", "2", "--trust-checkpoint"])
+        marker.unlink()  # loaded here, before the processes start
+        ((start, args),) = starts
+        start(*args)
+        assert marker.exists()
+    marker.unlink()
+    paths = main([*command[:-1], "--workers", "1", "--trust-checkpoint"])  # one point: intensity 0
+    assert marker.exists() and paths["csv"].exists()
 
 
 def test_any_policy_and_env_factory(short_agent):
@@ -177,7 +221,7 @@ def _retrain(directory):
     from dcs_torchrl.training.checkpoint import list_checkpoints, save_checkpoint
 
     frames, path = list_checkpoints(directory / "checkpoints")[-1]
-    state = torch.load(path, weights_only=False)
+    state = torch.load(path, weights_only=True)
     weight = next(v for v in state["policy"].values() if v.is_floating_point())
     weight += 0.01
     save_checkpoint(directory / "checkpoints", frames, state, keep=1)
@@ -270,6 +314,23 @@ def test_a_changed_env_default_evaluates_every_point_again(tmp_path, evaluated, 
     monkeypatch.setattr(texture_size, "default", 128)  # no override sets it
     sweep(tmp_path, COLOR)
     assert len(evaluated) == 4
+
+
+def test_every_output_names_an_axis_as_the_command_does(tmp_path, evaluated, monkeypatch):
+    """The CSV, the half-score table and the per-point table call the background axis `background`
+    (the command's --axes name), the 2021 code's blend marked in the tables."""
+    import dcs_torchrl.report.figures
+
+    monkeypatch.setattr(dcs_torchrl.report.figures, "curves_figure", lambda *_, **__: None)
+    points = [Point("background", v, False, blend) for blend in (False, True) for v in (0.0, 1.0)] + COLOR
+    paths = write_outputs(sweep(tmp_path, points), tmp_path)
+    with open(paths["csv"]) as f:
+        assert [r["axis"] for r in csv.DictReader(f)] == [p.axis for p in points]
+    text = paths["md"].read_text()
+    for section in text.split("## ")[1:]:  # the half-score table, the per-point table
+        rows = [line for line in section.splitlines() if line.startswith("|")][2:]  # below the heading and the rule
+        assert sorted({row.split("|")[1].strip() for row in rows}) == ["background", "background (2021 blend)", "color"]
+    assert "background_blend" not in text
 
 
 def test_outputs_name_their_renderer(tmp_path, evaluated, monkeypatch):

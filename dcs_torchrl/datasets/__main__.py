@@ -46,35 +46,38 @@ def _generate(args) -> None:
     print(_summary(args.out, record))
 
 
+#: A set's renderer (its ``pixels["backend"]``, GL in a set made before the Warp backend) as its summary names it.
+_RENDERERS = {"gl": "GL", "warp": "Warp"}
+
+
 def _summary(path, record: dict) -> str:
     returns = record["returns"] or {"mean": float("nan"), "stderr": float("nan")}
     policies = ", ".join(p["name"] for p in record["policies"])
+    pixels, size = record["pixels"], record["pixels"]["image_size"]
+    backend = pixels.get("backend", "gl")
     return (f"{path}: {record['episodes']} episodes, {record['transitions']} transitions, {record['frames']} frames of "
             f"{record['env']['domain']} {record['env']['task']} ({record['env']['benchmark']}, "
-            f"{'dynamic' if record['env']['dynamic'] else 'static'}), policy {policies}: return "
+            f"{'dynamic' if record['env']['dynamic'] else 'static'}; {size}x{size}, {_RENDERERS.get(backend, backend)} "
+            f"renderer, {'with' if pixels.get('masks') else 'no'} masks), policy {policies}: return "
             f"{returns['mean']:.1f} ± {returns['stderr']:.1f}")
 
 
 def _unfinished(path, record: dict) -> str | None:
     """What an unfinished set holds and the command that resumes it (``None`` for a finished set)."""
-    from dcs_torchrl.datasets.layout import pending, stored_episodes
+    from dcs_torchrl.datasets.layout import pending, resume_command, stored_episodes
 
     asked = record.get("asked") or {}
     whole = len(stored_episodes(Path(path)))
     if not pending(Path(path)) and whole >= asked.get("episodes", 0):
         return None
-    command = asked.get("command") or "the generate command that made it"
     return (f"{path}: unfinished: {whole} whole episodes of the {asked.get('episodes', '?')} asked (a run was "
-            f"stopped, or is running); resume it with: {command}")
+            f"stopped, or is running); resume it with: {resume_command(Path(path))}")
 
 
 def _info(args) -> None:
-    from dcs_torchrl.datasets.layout import METADATA, check_folder, read_json
+    from dcs_torchrl.datasets.layout import METADATA, check_set, read_json
 
-    check_folder(Path(args.path), "info")
-    if not (Path(args.path) / METADATA).is_file():
-        raise FileNotFoundError(f"{args.path} holds no dataset (no {METADATA}): make one with "
-                                "`python -m dcs_torchrl.datasets generate ... --out PATH`.")
+    check_set(Path(args.path))
     record = read_json(Path(args.path) / METADATA)
     unfinished = _unfinished(args.path, record)
     if args.json:

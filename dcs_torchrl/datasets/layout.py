@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
 from contextlib import contextmanager
 from pathlib import Path
@@ -33,9 +34,9 @@ from tensordict import TensorDict
 
 from dcs_torchrl.training.rundir import write_json_atomic as write_json
 
-__all__ = ["DATA", "EPISODES", "METADATA", "SetBusyError", "check_folder", "episode_table", "load_data",
-           "merge_episodes", "pending", "read_json", "recover", "stored_episodes", "write_episode", "write_json",
-           "writing"]
+__all__ = ["DATA", "EPISODES", "METADATA", "SetBusyError", "check_folder", "check_set", "episode_table", "load_data",
+           "merge_episodes", "pending", "read_json", "recover", "resume_command", "stored_episodes", "write_episode",
+           "write_json", "writing"]
 
 METADATA = "metadata.json"
 DATA = "data"
@@ -53,11 +54,27 @@ def read_json(path: Path):
     return json.loads(Path(path).read_text())
 
 
-def check_folder(out: Path, flag: str = "--out") -> None:
-    """Refuses ``out`` naming something that is not a folder."""
+def check_folder(out: Path, flag: str = "--out", wanted: str = "a new folder's path (or a set's folder)") -> None:
+    """Refuses ``out`` naming something that is not a folder; the message asks for ``wanted``."""
     if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"{flag} {os.fspath(out)} is a file, not a folder: give a new folder's path (or a "
-                                 "set's folder).")
+        raise NotADirectoryError(f"{flag} {os.fspath(out)} is a file, not a folder: give {wanted}.")
+
+
+def check_set(out: Path) -> None:
+    """Refuses ``out`` holding no set (a file, or a folder without ``metadata.json``), naming the command
+    that makes one."""
+    check_folder(out, "the set", "a set's folder")
+    if not (out / METADATA).is_file():
+        raise FileNotFoundError(f"{os.fspath(out)} holds no dataset ({os.fspath(out / METADATA)} is missing): make "
+                                f"one with: {resume_command(out)}")
+
+
+def resume_command(out: Path) -> str:
+    """The ``generate`` command that makes the set ``out`` and resumes it: the one its ``metadata.json``
+    records, else the command's shape."""
+    meta = Path(out) / METADATA
+    asked = (read_json(meta).get("asked") or {}) if meta.is_file() else {}
+    return asked.get("command") or f"python -m dcs_torchrl.datasets generate ... --out {shlex.quote(os.fspath(out))}"
 
 
 @contextmanager
@@ -184,10 +201,12 @@ def merge_episodes(out: Path, episodes: int) -> list[dict]:
 
 
 def load_data(out: Path) -> TensorDict:
-    """The merged set, memory-mapped (nothing read until indexed)."""
-    path = Path(out) / DATA
-    if not (path / _TABLE).is_file():
-        raise FileNotFoundError(f"{out} holds no finished dataset (no {DATA}/{_TABLE}): generate it with "
-                                "`python -m dcs_torchrl.datasets generate ... --out " f"{os.fspath(out)}` "
-                                "(the same command resumes a killed run).")
-    return TensorDict.load_memmap(path)
+    """The merged set, memory-mapped (nothing read until indexed); a folder holding none is refused with
+    the command that makes it (or resumes it: :func:`resume_command`)."""
+    out = Path(out)
+    table = out / DATA / _TABLE
+    if not table.is_file():
+        check_set(out)
+        raise FileNotFoundError(f"{os.fspath(out)} is an unfinished dataset ({os.fspath(table)} is missing: a generate "
+                                f"run was stopped, or is running); resume it with: {resume_command(out)}")
+    return TensorDict.load_memmap(out / DATA)

@@ -88,7 +88,7 @@ def export_vd4rl(path: str | os.PathLike, out: str | os.PathLike, fmt: str) -> l
             raise ModuleNotFoundError(f"export --format vd4rl-hdf5 needs h5py: pip install h5py ({error})",
                                       name=error.name) from None
     out = Path(out)
-    check_folder(out)
+    check_folder(out, "--out", "a new folder's path")
     if out.exists() and any(out.iterdir()):
         raise FileExistsError(f"--out {out} is not empty: give a new or empty folder (the export writes one file per "
                               "episode, and V-D4RL's loaders read every file of the folder).")

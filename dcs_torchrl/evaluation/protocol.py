@@ -238,9 +238,8 @@ def evaluate_in_processes(
             for i, future in enumerate(futures, start=1):
                 try:
                     returns.append(future.result())
-                except BrokenProcessPool:
-                    raise RuntimeError(f"evaluation process {i} died before sending its returns: look for its "
-                                       "error above.") from None
+                except BrokenProcessPool as error:  # a process died: killed (out of memory) or gone without its error
+                    raise pool.died("evaluation process", "evaluate with fewer workers") from error
                 except Exception as error:
                     raise RuntimeError(f"evaluation process {i} failed:\n{_remote_traceback(error)}") from error
     finally:

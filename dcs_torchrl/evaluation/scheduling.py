@@ -12,7 +12,8 @@ import time
 from collections import Counter
 from collections.abc import Hashable, Iterator, Mapping, Sequence
 
-from dcs_torchrl.pretrained import Pretrained, agent_directory, agent_env_settings, agent_results, load_pretrained
+from dcs_torchrl.pretrained import (Pretrained, agent_checkpoint, agent_directory, agent_env_settings, agent_results,
+                                    load_pretrained)
 
 __all__ = ["WARP_BATCH_ENVS", "evaluate_settings"]
 
@@ -22,8 +23,8 @@ WARP_BATCH_ENVS = 128
 
 def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict], episodes: int, *,
                       processes: int = 1, workers: int = 1, device: str = "cpu", final: bool = False,
-                      render_devices: Sequence[int | str] | None = None,
-                      backend: str = "gl") -> Iterator[tuple[Hashable, dict, float]]:
+                      render_devices: Sequence[int | str] | None = None, backend: str = "gl",
+                      trust_checkpoint: bool = False) -> Iterator[tuple[Hashable, dict, float]]:
     """:meth:`Pretrained.evaluate` of ``agent`` under each of several make_env ``settings``, in
     ``processes`` processes at once; yields ``(key, EvalResult.to_dict(), seconds)`` as each one
     finishes.
@@ -42,7 +43,8 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
         episodes: episodes per setting.
         processes: settings (with ``backend="warp"``: batches of settings) evaluated at once.
         workers: :meth:`Pretrained.evaluate`'s env workers per setting (1: one env).
-        device, final: as :func:`load_pretrained`.
+        device, final, trust_checkpoint: as :func:`load_pretrained` (a checkpoint it refuses is
+            refused here, before any process starts).
         render_devices: the GPU each process renders on, process ``i`` on
             ``render_devices[i % len]``: EGL device indices or CUDA devices (``"cuda:1"``), as
             :class:`~dcs_torchrl.ParallelSuiteEnv`'s, checked before anything starts; ``None``
@@ -66,13 +68,14 @@ def evaluate_settings(agent: str | os.PathLike, settings: Mapping[Hashable, dict
     else:
         batches = [[key] for key in settings]
     if devices is None and (processes == 1 or len(batches) < 2):
-        loaded = load_pretrained(agent, device, final=final) if settings else None
+        loaded = load_pretrained(agent, device, final=final, trust_checkpoint=trust_checkpoint) if settings else None
         for batch in batches:
             results = _timed_evaluation(loaded, [settings[key] for key in batch], episodes, workers, backend)
             yield from ((key, *result) for key, result in zip(batch, results))
         return
+    agent_checkpoint(agent, final=final, trust_checkpoint=trust_checkpoint)  # its refusal here, not in a process
     yield from _evaluate_in_processes(agent, settings, batches, episodes, min(processes, len(batches)), workers,
-                                      device, final, devices, backend)
+                                      device, final, devices, backend, trust_checkpoint)
 
 
 def _warp_batches(config: Mapping, settings: Mapping[Hashable, dict], episodes: int,
@@ -97,11 +100,12 @@ def _warp_batches(config: Mapping, settings: Mapping[Hashable, dict], episodes: 
 
 def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], batches: list[list[Hashable]], episodes: int,
                            processes: int, workers: int, device: str, final: bool, devices: list[int] | None,
-                           backend: str = "gl"):
+                           backend: str = "gl", trust_checkpoint: bool = False):
     """:func:`evaluate_settings` in spawned processes: one pool per render device (its processes
     spawned with ``MUJOCO_EGL_DEVICE_ID`` naming it), each fed a batch of settings whenever one of
     its processes is free."""
     from concurrent.futures import FIRST_COMPLETED, wait
+    from concurrent.futures.process import BrokenProcessPool
     from contextlib import ExitStack
 
     from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE, RENDER_THREADS_VARIABLE, render_threads_share
@@ -121,14 +125,19 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], batches: li
         for render, count in share.items():
             pool = stack.enter_context(SpawnedPool(
                 count, environment={EGL_DEVICE_VARIABLE: render, RENDER_THREADS_VARIABLE: render_threads_share(threads)},
-                threads=threads, initializer=_start_worker, initargs=(os.fspath(agent), device, final, render)))
+                threads=threads, initializer=_start_worker,
+                initargs=(os.fspath(agent), device, final, render, trust_checkpoint)))
             for _ in range(count):
                 feed(pool)
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
                 batch, pool = running.pop(future)
-                results = future.result()
+                try:
+                    results = future.result()
+                except BrokenProcessPool as error:  # a process died: killed (out of memory) or gone without its error
+                    raise pool.died("evaluation process", "evaluate fewer settings at once (processes; the robustness "
+                                                          "command's --workers)") from error
                 feed(pool)
                 yield from ((key, *result) for key, result in zip(batch, results))
 
@@ -136,14 +145,14 @@ def _evaluate_in_processes(agent, settings: Mapping[Hashable, dict], batches: li
 _WORKER_AGENT = None
 
 
-def _start_worker(agent: str, device: str, final: bool, render: int | None) -> None:
+def _start_worker(agent: str, device: str, final: bool, render: int | None, trust_checkpoint: bool = False) -> None:
     from dcs_torchrl.render.egl_devices import process_render_device
 
     if render is not None and process_render_device() != render:  # spawned outside its pool's environment
         raise RuntimeError(f"an evaluation process meant to render on EGL device {render} was started on "
                            f"{process_render_device()}: it must be spawned with MUJOCO_EGL_DEVICE_ID={render}.")
     global _WORKER_AGENT
-    _WORKER_AGENT = load_pretrained(agent, device, final=final)
+    _WORKER_AGENT = load_pretrained(agent, device, final=final, trust_checkpoint=trust_checkpoint)
 
 
 def _timed_evaluation(agent: Pretrained, batch: list[dict], episodes: int, workers: int,

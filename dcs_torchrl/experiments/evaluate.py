@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 
 #: What the command line may set; the rest of the config is the trained run's.
 SETTABLE = ("train_dir", "eval_env.", "eval.episodes", "eval.num_workers", "device", "execution.render_device",
-            "experiment", "sweep", "progress", "hydra.")
+            "checkpoint.trust", "experiment", "sweep", "progress", "hydra.")
 
 # The default run directory (evaluate.yaml): named after the overrides, `as_trained` without any.
 OmegaConf.register_new_resolver("or_default", lambda value, default: value or default, replace=True)
@@ -95,6 +95,7 @@ def evaluate_checkpoint(
     settings: Mapping[str, object] | None = None,
     threads: int | None = None,
     processes: int = 1,
+    trust_checkpoint: bool = False,
 ) -> list[dict]:
     """Evaluates the final checkpoint of ``train_dir`` once per ``(directory, evaluation)``.
 
@@ -109,6 +110,8 @@ def evaluate_checkpoint(
         processes: evaluations run at once, each in its own process and one env per evaluation
             (:func:`dcs_torchrl.evaluation.scheduling.evaluate_settings`); every return is the one a lone
             evaluation gives.
+        trust_checkpoint: load a checkpoint that holds more than tensors, numbers and strings
+            (:func:`dcs_torchrl.pretrained.load_pretrained`; unpickling it can run code).
 
     Returns:
         the ``results.json`` content of every target, in order.
@@ -156,7 +159,8 @@ def evaluate_checkpoint(
     for index, result, seconds in evaluate_settings(train_dir, {i: e.eval_env for i, (_, e, _) in pending.items()},
                                                     episodes, processes=processes, workers=workers, device=device,
                                                     render_devices=None if render is None else [render],
-                                                    final=True):  # a training checkpoint or an exported agent
+                                                    final=True,  # a training checkpoint or an exported agent
+                                                    trust_checkpoint=trust_checkpoint):
         run, evaluation, eval_settings = pending[index]
         config = OmegaConf.to_container(cfg)
         config.update(
@@ -186,13 +190,15 @@ def evaluate_from_config(cfg: DictConfig) -> dict:
     if fixed:
         raise SystemExit(f"{fixed}: these come from the trained run ({cfg.train_dir}/results.json); "
                          "here only eval_env.*, eval.episodes, eval.num_workers, device, "
-                         "execution.render_device, experiment and sweep.")
+                         "execution.render_device, checkpoint.trust, experiment and sweep.")
     settings = {k: OmegaConf.select(cfg, k) for k in ("eval.episodes", "eval.num_workers", "device",
                                                        "execution.render_device") if k in given}
     eval_env = {k: v for k, v in OmegaConf.to_container(cfg.eval_env, resolve=True).items() if v is not None}
     sweep = OmegaConf.to_container(cfg.sweep, resolve=True) if cfg.sweep is not None else None
     evaluation = Evaluation("", cfg.experiment, eval_env, sweep)
-    (results,) = evaluate_checkpoint(cfg.train_dir, [(HydraConfig.get().runtime.output_dir, evaluation)], settings=settings)
+    trust = bool(OmegaConf.select(cfg, "checkpoint.trust", default=False))
+    (results,) = evaluate_checkpoint(cfg.train_dir, [(HydraConfig.get().runtime.output_dir, evaluation)],
+                                     settings=settings, trust_checkpoint=trust)
     print(f"{results['method']} {results['domain']} {results['task']} seed {results['seed']} ({results['steps']} frames) "
           f"under {eval_env or 'the training env'}: {results['eval']['mean']:.1f} ± {results['eval']['stderr']:.1f} "
           f"over {results['eval']['episodes']} episodes")

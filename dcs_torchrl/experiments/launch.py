@@ -173,7 +173,8 @@ def run_job(cfg: DictConfig, run_id: str) -> str:
         try:
             evaluate_checkpoint(run.dir(_root(cfg)), [(run.eval_dir(_root(cfg), e), e) for e in run.evaluations],
                                 settings=recipe_settings(cfg), threads=cfg.budget.threads,
-                                processes=OmegaConf.select(cfg, "budget.eval_processes", default=1))
+                                processes=OmegaConf.select(cfg, "budget.eval_processes", default=1),
+                                trust_checkpoint=bool(OmegaConf.select(cfg, "checkpoint.trust", default=False)))
         except Exception as err:  # noqa: BLE001 - recorded for the status, the sweep goes on
             _write_status(cfg, run, state="failed", stage="evaluate", error=f"{type(err).__name__}: {err}", **where)
             return "failed"

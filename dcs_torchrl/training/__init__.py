@@ -10,6 +10,7 @@ from dcs_torchrl import lazy_exports
 _PUBLIC = {
     "LossAgent": "dcs_torchrl.training.agent", "pixel_networks": "dcs_torchrl.training.agent",
     "CheckpointError": "dcs_torchrl.training.checkpoint", "load_latest": "dcs_torchrl.training.checkpoint",
+    "UntrustedCheckpointError": "dcs_torchrl.training.checkpoint",
     "save_checkpoint": "dcs_torchrl.training.checkpoint",
     "batched_pixel_env": "dcs_torchrl.training.envs", "pixel_env": "dcs_torchrl.training.envs",
     "train": "dcs_torchrl.training.loop",

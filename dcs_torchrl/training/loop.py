@@ -225,10 +225,12 @@ class Workspace:
     # ------------------------------------------------------------------------------ resume
     def resume(self) -> None:
         """Loads the last checkpoint (agent, replay, counters, RNG) if any, and opens the logger
-        at the matching row of ``metrics.csv``."""
+        at the matching row of ``metrics.csv``. A checkpoint that holds more than tensors, numbers
+        and strings (one written before RNG states were tensors, or not by the suite) is refused
+        unless ``checkpoint.trust=true``; the run's next checkpoints are in the safe format."""
         cfg, run = self.cfg, self.run
         wandb_id = None
-        resumed = load_latest(run.checkpoints)
+        resumed = load_latest(run.checkpoints, trust=OmegaConf.select(cfg, "checkpoint.trust", default=False))
         if resumed is not None:
             frames, state = resumed
             self.agent.load_state_dict(state["agent"])

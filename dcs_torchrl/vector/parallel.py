@@ -39,6 +39,7 @@ from dcs_torchrl.render.egl_devices import EGL_DEVICE_VARIABLE as _EGL_DEVICE
 from dcs_torchrl.render.egl_devices import RENDER_THREADS_VARIABLE, process_render_device, render_device_indices, spawn_environment
 from dcs_torchrl.vector._batching import chain_seeds, close_once, marked
 from dcs_torchrl.vector._threads import torch_threads
+from dcs_torchrl.vector.process_pool import WorkerDiedError, worker_died
 
 __all__ = ["ParallelSuiteEnv"]
 
@@ -62,6 +63,10 @@ class ParallelSuiteEnv(EnvBase):
     continue their episodes) and partial steps (``"_step"``, which ``rollout`` writes), usable with TorchRL's
     collectors, ``rollout`` and the suite's evaluation; faster than TorchRL's ``ParallelEnv`` with the
     suite's envs on small machines (docs/performance.md, "Parallel envs"; ``benchmarks/parallel_speed.py``).
+
+    A worker that fails raises its traceback; one that dies (the OOM killer, ``kill -9``) raises
+    :class:`~dcs_torchrl.WorkerDiedError` naming it, its envs, its signal or exit code and the fix.
+    Either closes the env (the other workers end); a ``close()`` after it returns.
 
     Args:
         num_workers (int): the number of envs, each in its own process.
@@ -153,6 +158,9 @@ class ParallelSuiteEnv(EnvBase):
         self._pipes: list[Connection | None] = []  # None: the env stepped here (first_here)
         self._procs: list[mp.Process | None] = []
         self._here: _Stepper | None = None
+        self._started = False  # every worker's env built and attached to the buffers
+        self._failure: str | None = None  # why a failed or dead worker closed the env ("worker 1 died")
+        self._close_owed = False  # a user's close() after that: nothing left to close, no error
         self.is_closed = True
         ctx = mp.get_context(mp_start_method)
         try:
@@ -172,16 +180,17 @@ class ParallelSuiteEnv(EnvBase):
                 self._procs.append(proc)
             self.is_closed = False
             self._wait(range(num_workers))  # every env built (or the first error raised)
-            self._set_specs(self._here.specs() if first_here else self._pipes[0].recv())
+            self._set_specs(self._here.specs() if first_here else self._talk(0, self._pipes[0].recv))
             self._buffers = _shared_buffers(self)
             if self.device != _BUFFERS:
                 for name in _SPECS:
                     setattr(self, name, getattr(self, name).to(self.device))
-            for pipe in self._remote(range(num_workers)):
-                pipe.send(self._buffers)
+            for index in range(int(first_here), num_workers):
+                self._talk(index, self._pipes[index].send, self._buffers)
             if first_here:
                 self._here.attach(self._buffers, rows[0])
             self._wait(range(num_workers))
+            self._started = True
         except BaseException:
             self.close(raise_if_closed=False)
             raise
@@ -238,9 +247,10 @@ class ParallelSuiteEnv(EnvBase):
             def set_seed(seed):
                 if pipe is None:
                     return self._here.env.set_seed(seed, static_seed=static_seed)
-                pipe.send_bytes(_SEED)
-                pipe.send((seed, static_seed))
-                return self._receive(index)
+                self._talk(index, pipe.send_bytes, _SEED)
+                self._talk(index, pipe.send, (seed, static_seed))
+                self._wait([index])
+                return self._talk(index, pipe.recv)
             return set_seed
 
         return chain_seeds([worker(index, pipe) for index, pipe in enumerate(self._pipes)], seed)
@@ -249,6 +259,11 @@ class ParallelSuiteEnv(EnvBase):
         raise NotImplementedError
 
     def close(self, *, raise_if_closed: bool = True) -> None:
+        """Ends the workers (each told to close, and terminated if it has not within 10 s). After a
+        worker failed or died, which closed the env, the first ``close()`` returns at once."""
+        if self._close_owed:
+            self._close_owed = False
+            return
         if not close_once(self, raise_if_closed):
             return
         pipes, procs = [p for p in self._pipes if p is not None], [p for p in self._procs if p is not None]
@@ -272,16 +287,26 @@ class ParallelSuiteEnv(EnvBase):
             self.close(raise_if_closed=False)
 
     # ------------------------------------------------------------ messaging
-    def _remote(self, workers) -> list[Connection]:
-        """The pipes of ``workers`` that run in their own process."""
-        return [self._pipes[i] for i in workers if self._pipes[i] is not None]
+    def _talk(self, index: int, call: Callable, *args):
+        """``call(*args)``, a send to or receive from worker ``index``'s pipe; a dead worker's error
+        where the pipe is broken."""
+        try:
+            return call(*args)
+        except (EOFError, OSError) as error:  # BrokenPipeError, ConnectionResetError
+            raise self._died(index) from error
 
     def _command(self, command: bytes, workers) -> None:
         workers = list(workers)
         if self.is_closed:
-            raise RuntimeError("ParallelSuiteEnv is closed: build a new one.")
-        for pipe in self._remote(workers):
-            pipe.send_bytes(command)
+            why = "" if self._failure is None else f" ({self._failure})"
+            raise RuntimeError(f"ParallelSuiteEnv is closed{why}: build a new one.")
+        index = None
+        try:
+            for index in workers:
+                if self._pipes[index] is not None:
+                    self._pipes[index].send_bytes(command)
+        except OSError as error:  # a dead worker's pipe (BrokenPipeError, ConnectionResetError)
+            raise self._died(index) from error
         if self._here is not None and 0 in workers:  # the first env, while the workers step theirs
             # one thread, as in a worker: torch's idle intra-op threads spin on the workers' cores
             with torch_threads(1):
@@ -308,35 +333,49 @@ class ParallelSuiteEnv(EnvBase):
             for pipe in ready:
                 self._answer(pending.pop(pipe))
 
-    def _receive(self, index: int):
-        """The object worker ``index`` sends after its status byte."""
-        self._wait([index])
-        return self._pipes[index].recv()
-
     def _answer(self, index: int) -> None:
         try:
             status = self._pipes[index].recv_bytes()
-        except EOFError:
-            self._check_alive([index])
-            raise
+            message = self._pipes[index].recv() if status == _FAILED else None
+        except (EOFError, OSError) as error:  # a dead worker's pipe
+            raise self._died(index) from error
         if status == _FAILED:
-            message = self._pipes[index].recv()
-            self.close(raise_if_closed=False)
+            self._fail(f"worker {index} failed")
             raise RuntimeError(f"ParallelSuiteEnv worker {index} failed:\n{message}")
 
     def _check_alive(self, workers) -> None:
+        """Raises for the first of ``workers`` that is dead (a wait's timeout: a dead worker's pipe
+        tells at once, except where another process holds its end)."""
         for index in workers:
-            proc = self._procs[index]
-            if not proc.is_alive():
-                self.close(raise_if_closed=False)
-                device = "" if self._render_devices is None else (
-                    f"; or it could not render on its EGL device, {_EGL_DEVICE}="
-                    f"{self._render_devices[index % len(self._render_devices)]} (render_devices)")
-                raise RuntimeError(
-                    f"ParallelSuiteEnv worker {index} died (exit code {proc.exitcode}): "
-                    "look for its error above; an env that cannot be built in a spawned process "
-                    f"(a lambda, a local function) fails this way{device}."
-                )
+            if not self._procs[index].is_alive():
+                raise self._died(index)
+
+    def _died(self, index: int) -> WorkerDiedError:
+        """The error for worker ``index``, found dead (its pipe broken, or not alive at a wait's timeout),
+        naming its envs, how it ended and the fix; closes the env (its other workers end)."""
+        proc = self._procs[index]
+        proc.join(timeout=5)  # a pipe breaks as its process ends: the exit code comes a moment later
+        rows = self._rows[index]
+        envs = f"env {rows}" if isinstance(rows, int) else (
+            f"env {rows.start}" if rows.stop - rows.start == 1 else f"envs {rows.start}-{rows.stop - 1}")
+        hint = ""
+        if not self._started:
+            device = "" if self._render_devices is None else (
+                f"; or it could not render on its EGL device, {_EGL_DEVICE}="
+                f"{self._render_devices[index % len(self._render_devices)]} (render_devices)")
+            hint = (" It died before its env was built: an env that cannot be built in a spawned process (a lambda, "
+                    f"a local function) fails this way{device}.")
+        fewer = "run fewer envs at once (a smaller num_envs; with backend='warp', fewer processes)"
+        error = worker_died(f"ParallelSuiteEnv worker {index} ({envs} of {self.batch_size[0]})", proc.exitcode, fewer,
+                            hint)
+        self._fail(f"worker {index} died")
+        return error
+
+    def _fail(self, failure: str) -> None:
+        """Closes the env after a worker failed or died: the other workers end, the next command raises
+        naming ``failure``, and the user's next ``close()`` returns at once."""
+        self.close(raise_if_closed=False)
+        self._failure, self._close_owed = failure, True
 
 
 def _copy(td: TensorDictBase) -> TensorDictBase:

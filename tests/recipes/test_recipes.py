@@ -83,7 +83,7 @@ def test_sigkill_then_same_command_resumes_without_losing_or_repeating_rows(tmp_
     process.wait()
     assert not (run_dir / "results.json").exists()
     for frames, path in list_checkpoints(run_dir / "checkpoints"):  # each says what is due after it, not itself
-        counters = torch.load(path, map_location="cpu", weights_only=False)["counters"]
+        counters = torch.load(path, map_location="cpu", weights_only=True)["counters"]  # as a resume reads it
         assert counters["next_checkpoint"] > frames and counters["next_eval"] > frames, (frames, counters)
     resumed = recipe("sac", run_dir, *args)  # the default: channels_last=true
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr

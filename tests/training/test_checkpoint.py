@@ -1,16 +1,23 @@
-"""Checkpoints: atomic, verified, the previous one used when the newest is corrupt or half-written."""
+"""Checkpoints: atomic, verified, the previous one used when the newest is corrupt or half-written;
+read as weights only, a checkpoint that would run code refused unless trusted."""
 from __future__ import annotations
 
+import random
+
+import numpy as np
 import pytest
 import torch
 from hydra import compose, initialize_config_module
+from omegaconf import OmegaConf
 from tensordict import TensorDict
 from torchrl.checkpoint import GlobalRNGState
 from torchrl.data import Bounded
 
 from dcs_torchrl.methods import agent_class
-from dcs_torchrl.training import FrameStackReplayBuffer, load_latest, save_checkpoint
-from dcs_torchrl.training.checkpoint import list_checkpoints
+from dcs_torchrl.training import FrameStackReplayBuffer, RunDirectory, load_latest, save_checkpoint
+from dcs_torchrl.training.checkpoint import UntrustedCheckpointError, list_checkpoints
+from dcs_torchrl.training.loop import Workspace
+from test_pretrained import CreatesFile
 
 
 def test_keeps_the_newest_and_loads_the_latest(tmp_path):
@@ -49,7 +56,7 @@ def test_a_readable_checkpoint_that_does_not_match_its_checksum_is_skipped(tmp_p
         torch.save({"w": torch.full((1000,), 7.0)}, newest)
     else:  # a checksum recorded for other bytes
         sidecar.write_text("0" * 64)
-    assert torch.load(newest, weights_only=False)["w"].shape == (1000,)  # valid torch data
+    assert torch.load(newest, weights_only=True)["w"].shape == (1000,)  # valid torch data
     with pytest.warns(UserWarning, match="does not match its checksum"):
         frames, state = load_latest(tmp_path)
     assert frames == 100 and torch.equal(state["w"], torch.ones(1000))
@@ -78,3 +85,64 @@ def test_a_training_checkpoint_pickles_no_class_of_the_package(tmp_path, algo):
     path = save_checkpoint(tmp_path, 4, state)
     loaded = torch.load(path, weights_only=True)
     assert loaded["agent"]["loss"].keys() == state["agent"]["loss"].keys()
+
+
+def test_a_checkpoint_that_would_run_code_is_refused_unless_trusted(tmp_path):
+    """Its checksum matches (it proves integrity, not trust): refused naming what it holds, nothing run,
+    and no older checkpoint taken in its place; ``trust=True`` unpickles it."""
+    marker = tmp_path / "ran"
+    save_checkpoint(tmp_path, 100, {"w": torch.ones(3)})
+    save_checkpoint(tmp_path, 200, {"w": torch.zeros(3), "payload": CreatesFile(marker)})
+    refusal = r"000200\.pt holds .*\(io\.open\).*trust_checkpoint=True.*--trust-checkpoint.*checkpoint\.trust=true"
+    with pytest.raises(UntrustedCheckpointError, match=refusal):
+        load_latest(tmp_path)
+    assert not marker.exists()
+    frames, state = load_latest(tmp_path, trust=True)
+    assert frames == 200 and marker.exists() and torch.equal(state["w"], torch.zeros(3))
+
+
+@pytest.fixture
+def tiny_run(tmp_path):
+    """A SAC run's config and directory, a checkpoint of its fresh workspace written by the loop."""
+    with initialize_config_module("dcs_torchrl.training.conf", version_base=None):
+        cfg = compose("sac", overrides=["pixels.image_size=32", "env.action_repeat=100", "network.hidden_dim=16",
+                                        "replay_buffer.size=16", "algo.batch_size=4", "eval.video=false",
+                                        "progress=false"])
+    run = RunDirectory(tmp_path / "run", OmegaConf.to_container(cfg, resolve=True))
+    run.claim()
+    with Workspace(cfg, agent_class("sac"), run) as workspace:
+        workspace.resume()
+        workspace.counters["steps"] = 3
+        workspace.checkpoint()
+        workspace.logger.close()
+    return cfg, run
+
+
+def _resumed_counters(cfg, run, trust: bool) -> dict:
+    cfg = OmegaConf.merge(cfg, {"checkpoint": {"trust": trust}})  # the recipes' checkpoint.trust=true
+    with Workspace(cfg, agent_class("sac"), run) as workspace:
+        workspace.resume()
+        workspace.logger.close()
+        return workspace.counters
+
+
+@pytest.mark.parametrize("holds", ["code", "numpy_rng"])
+def test_a_resume_refuses_a_checkpoint_that_needs_more_than_weights_unless_trusted(tiny_run, holds):
+    """The loop's own checkpoint loads as weights only; one that would run code, or one of the format
+    written before RNG states were tensors (NumPy's state as an array), is refused (nothing run) and
+    resumes with ``checkpoint.trust=true``."""
+    cfg, run = tiny_run
+    ((frames, path),) = list_checkpoints(run.checkpoints)
+    state = torch.load(path, weights_only=True)
+    assert _resumed_counters(cfg, run, trust=False)["steps"] == 3
+    marker = run.path / "ran"
+    if holds == "code":
+        state["payload"] = CreatesFile(marker)
+    else:
+        state["rng"] = {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
+    save_checkpoint(run.checkpoints, frames, state)
+    with pytest.raises(UntrustedCheckpointError, match=r"numpy" if holds == "numpy_rng" else r"\(io\.open\)"):
+        _resumed_counters(cfg, run, trust=False)
+    assert not marker.exists()
+    assert _resumed_counters(cfg, run, trust=True)["steps"] == 3
+    assert marker.exists() == (holds == "code")

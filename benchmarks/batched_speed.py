@@ -28,7 +28,7 @@ not returned, so it is not the episodes of dm_control's step).
 ``--processes P``: all in, a row ``warp N=n, P processes`` per size (``make_env(..., processes=P)``: P Warp
 batches of the n envs, one per process, the first in this one; their shares are the workers' own, not
 printed); with ``--physics-only``, a column with the N envs' BatchPhysics shared among P processes (N/P
-envs each, one thread each where P is the core count or more, else chosen), stepped at once, their rates summed: the
+envs each, one thread each where P is the core count or more, else every core), stepped at once, their rates summed: the
 physics of ``processes=P``.
 """
 from __future__ import annotations
@@ -158,7 +158,7 @@ class PhysicsTimed:
 
     def __init__(self, domain: str, task: str, n: int, threads: int | None | bool | str):
         """``threads``: ``False`` for today's per-env path, ``"rollout"`` for the bound (mujoco.rollout),
-        else BatchPhysics's (``None``: chosen)."""
+        else BatchPhysics's (``None``: every core)."""
         from dm_control import suite
 
         self.envs = [suite.load(domain, task, task_kwargs={"random": i}) for i in range(n)]
@@ -175,7 +175,7 @@ class PhysicsTimed:
             arrays = task_arrays(domain, task, self.envs[0].task)
             self.batch = BatchPhysics(self.envs, arrays, self.k, threads)
         self.all = np.arange(n)
-        for _ in range(40):  # built, and the threads chosen
+        for _ in range(40):  # built and compiled
             self.step()
 
     def step(self) -> None:
@@ -238,7 +238,7 @@ def physics_only(args) -> None:
           "env-agent steps/s (ratio to today's per-env path); no render, random actions")
     apart = args.processes if args.processes and args.processes > 1 else None
     print("| task (action repeat) | N | dm_control step, env by env | BatchPhysics, 1 thread | "
-          f"BatchPhysics, {cores} threads | BatchPhysics, threads chosen (count) | "
+          f"BatchPhysics, {cores} threads | BatchPhysics, default threads (count) | "
           + (f"BatchPhysics in {apart} processes | " if apart else "")
           + f"bound: mujoco.rollout, {cores} threads, physics alone |")
     print("|---|--:|--:|--:|--:|--:|--:|" + ("--:|" if apart else ""))

@@ -320,7 +320,7 @@ def _check_options(o: EnvOptions) -> None:
 
 def _warp_share(s: EnvSettings, o: EnvOptions, num_envs: int, physics_threads: int | None) -> EnvBase:
     """One process's batch of ``make_env(..., processes=P)``: ``num_envs`` envs of settings ``s``, their
-    physics on ``physics_threads`` threads (``None``: chosen), unseeded (the chain through the batches seeds it)."""
+    physics on ``physics_threads`` threads (``None``: every core), unseeded (the chain through the batches seeds it)."""
     return _warp_env([(s, num_envs)], o, physics_threads)
 
 

@@ -425,20 +425,49 @@ def test_each_world_shows_the_frame_its_own_distraction_draws_every_step(sky_tab
         envs.append(TransformedEnv(base, Compose(BackgroundDistraction(clips, dynamic=True, texture_size=16, seed=i,
                                                                        expose=True))))
     env = BatchedSuiteEnv(envs, height=32, width=32, masks=True, render_chunks=2, sky_table=sky_table)
-    assert (env._table is not None) == sky_table
+    assert (env.skies.table is not None) == sky_table
     env.set_seed(3)
     td, seen = env.reset(), set()
     for t in range(EPISODE + 3):
-        labels, pixels = td["masks"].numpy(), td["pixels"].numpy()
-        for world, (video, frame) in enumerate(td["distractions", "background"].tolist()):
-            sky = labels[world] == MASK_LABELS["background"]
-            rails = sky & (pixels[world, ..., 2] != 200)  # the rails: static world geoms, labelled background
-            shown = pixels[world][sky & ~rails]
-            assert len(shown) > 100 and (shown == _colour(video, frame)).all(), (t, world, video, frame)
-            seen.add((video, frame))
+        seen |= _skies_shown(td, f"step {t}")
         td = env.step_and_maybe_reset(td.set("action", _actions(1, 5)[0]))[1]
     env.close()
     assert len(seen) > 5  # worlds apart and frames over time
+
+
+def _skies_shown(td, where: str) -> set:
+    """The (video, frame) each world's distraction state says, checked against its sky: every sky pixel
+    (labelled background, less the rails) of that pair's colour (:func:`_colour`)."""
+    labels, pixels, seen = td["masks"].cpu().numpy(), td["pixels"].cpu().numpy(), set()
+    for world, (video, frame) in enumerate(td["distractions", "background"].tolist()):
+        sky = labels[world] == MASK_LABELS["background"]
+        rails = sky & (pixels[world, ..., 2] != 200)  # the rails: static world geoms, labelled background
+        shown = pixels[world][sky & ~rails]
+        assert len(shown) > 100 and (shown == _colour(video, frame)).all(), (where, world, video, frame)
+        seen.add((video, frame))
+    return seen
+
+
+@pytest.mark.parametrize("device", ["cpu", pytest.param("cuda", marks=pytest.mark.skipif(
+    not torch.cuda.is_available(), reason="needs a CUDA GPU (benchmarks/gpu_check.sh batched)"))])
+def test_a_clip_added_to_the_frame_table_in_place_is_shown(device):
+    """The frame table grows into a new array or, while it has room, in place: a CUDA renderer, which
+    renders from its own copy of the table, copies it again when its version rises, not only when the array
+    is new. Solid-colour clips, each reset drawing videos: each world's sky is its (video, frame)'s colour."""
+    clips = [np.stack([np.full((8, 8, 3), _colour(v, f), np.uint8) for f in range(2)]) for v in range(6)]
+    envs = [TransformedEnv(DMControlEnv("cartpole", "swingup", from_pixels=False, frame_skip=100), Compose(
+        BackgroundDistraction(clips, dynamic=True, texture_size=16, seed=i, expose=True))) for i in range(2)]
+    env = BatchedSuiteEnv(envs, height=32, width=32, device=device, masks=True, sky_table=True)
+    env.set_seed(0)
+    added = {"new array": 0, "in place": 0}
+    for reset in range(6):
+        rows, version = env.skies.table.rows, env.skies.table.version
+        td = env.reset()
+        if env.skies.table.version > version:
+            added["in place" if env.skies.table.rows is rows else "new array"] += 1
+        _skies_shown(td, f"reset {reset}")
+    env.close()
+    assert min(added.values()) > 0, added  # both kinds of addition were rendered
 
 
 @pytest.mark.parametrize("extra", [{}, {"background_blend": 0.5}], ids=["frames-alone", "blended"])
@@ -463,7 +492,7 @@ def test_the_frame_table_and_each_worlds_rows_give_the_same_pixels(extra):
 @pytest.mark.parametrize("dynamic", [False, True])
 def test_a_worlds_own_sky_is_marked_changed_exactly_when_its_distraction_writes_it(dynamic):
     """Each world's own row (a blended sky): its part's sky_version, which a CUDA renderer uploads on,
-    rises at the steps a sky is written (every step of a dynamic background) and at no other."""
+    rises once at the steps its skies are written (every step of a dynamic background) and at no other."""
     from dcs_torchrl.envs import _distracted_env, resolve_settings
 
     settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=dynamic, background_blend=0.5)
@@ -476,15 +505,15 @@ def test_a_worlds_own_sky_is_marked_changed_exactly_when_its_distraction_writes_
         td = env.step(td.set("action", action))["next"]
         versions.append([scene.sky_version for scene in env._scenes])
     env.close()
-    assert versions[0] == [2, 2]  # two worlds a part, each written at the reset
+    assert versions[0] == [1, 1]  # two worlds a part, both written at the reset
     rises = [[b - a for a, b in zip(before, after)] for before, after in zip(versions, versions[1:])]
-    assert rises == [[2, 2] if dynamic else [0, 0]] * 3
+    assert rises == [[1, 1] if dynamic else [0, 0]] * 3
 
 
 def test_the_frame_table_holds_each_clip_once_and_keeps_rows_as_it_grows():
-    from dcs_torchrl.vector.batched import _FrameTable
+    from dcs_torchrl.render.skies import FrameTable
 
-    table = _FrameTable(2)
+    table = FrameTable(2)
     clips = [np.full((n, 2, 2, 3), v, np.uint8) for n, v in ((3, 10), (1, 20), (4, 30))]
     rows = [table.row(clip, len(clip) - 1) for clip in clips]
     assert rows == [3, 4, 8] and table.used == 9 and table.version == 3  # row 0: the blank sky before any clip
@@ -718,9 +747,54 @@ def test_the_gymnasium_vector_env_steps_the_batch_and_autoresets_at_the_next_ste
     warp.close()
 
 
-def _run(env, seed: int, actions: torch.Tensor) -> list:
-    """Every step's output of ``env`` (seeded, reset once) under ``actions``, cloned, on the CPU."""
-    env.set_seed(seed)
+def test_every_sub_env_of_the_gymnasium_vector_env_starts_its_next_episode_unstepped_at_an_autoreset():
+    """The sub-envs' episodes staggered (reset_mask), so that each ends while the others run on: at the step
+    after each episode's end that sub-env shows the reset frame of its next episode (reward 0, no flag) and is
+    not stepped; every sub-env's frames, rewards and flags are those of one Warp env seeded with its seed of
+    the chain, reset where its episode ended."""
+    import gymnasium
+
+    import dcs_torchrl.gym_env  # noqa: F401  (registers the ids)
+
+    n, options = 3, dict(action_repeat=100, height=32, width=32, device=DEVICE)
+    envs = gymnasium.make_vec("dcs/cartpole-swingup-medium-dynamic-v0", num_envs=n,
+                              vectorization_mode="vector_entry_point", **options)
+    alone = [make_env("cartpole", "swingup", benchmark="medium", dynamic=True, num_envs=1, backend="warp", **options)
+             for _ in range(n)]
+    chained = 5
+    for env in alone:  # sub-env i: the i-th seed of the chain from 5
+        chained = env.set_seed(chained)
+    obs, _ = envs.reset(seed=5)
+    tds = [env.reset() for env in alone]
+    actions = _actions(2 * EPISODE + 6, n).float()
+    ended, autoresets = np.zeros(n, bool), np.zeros(n, int)
+    for t, action in enumerate(actions):
+        if t in (1, 2):  # restart 0 and 1, then 0: sub-env i is i steps into its episode, each ends at its own step
+            mask = np.array([True, True, False]) if t == 1 else np.array([True, False, False])
+            obs, _ = envs.reset(options={"reset_mask": mask})
+            tds = [env.reset() if reset else td for env, td, reset in zip(alone, tds, mask)]
+        for i in range(n):
+            assert np.array_equal(obs[i], tds[i]["pixels"][0].cpu().numpy()), f"before step {t}: sub-env {i}'s frame"
+        obs, rewards, terminated, truncated, _ = envs.step(action.numpy())
+        for i, env in enumerate(alone):
+            if ended[i]:  # NEXT_STEP: the next episode's reset frame, no step
+                tds[i], expected = env.reset(), (0.0, False, False)
+                autoresets[i] += 1
+            else:
+                tds[i] = env.step(tds[i].set("action", action[i:i + 1].double().to(env.device)))["next"]
+                expected = tuple(tds[i][key].item() for key in ("reward", "terminated", "truncated"))
+            assert (rewards[i], terminated[i], truncated[i]) == expected, f"step {t}: sub-env {i}"
+        ended = terminated | truncated
+    for i in range(n):
+        assert np.array_equal(obs[i], tds[i]["pixels"][0].cpu().numpy()), f"the last step: sub-env {i}'s frame"
+    assert autoresets.tolist() == [2] * n  # each sub-env's two episode ends, at steps of its own
+    envs.close()
+    for env in alone:
+        env.close()
+
+
+def _run(env, actions: torch.Tensor) -> list:
+    """Every step's output of ``env`` (reset once) under ``actions``, cloned, on the CPU."""
     td = env.reset()
     out = [td.exclude("action").clone().cpu()]
     for action in actions:
@@ -734,24 +808,35 @@ def _run(env, seed: int, actions: torch.Tensor) -> list:
     [({}, 2), ({"background_blend": 0.5}, 2)],  # one face of video beside six faces blended onto the sky
 ], ids=["no-videos", "videos-blended-and-not"])
 def test_each_group_of_a_grouped_env_runs_the_episodes_and_pixels_of_its_own_batch(groups):
+    """make_grouped_env(..., seed=s): every group runs the episodes, distraction draws and pixels of its own
+    batch, make_env(..., num_envs=its envs, backend="warp", seed=s); another seed, other episodes in every group."""
     base = {k: v for k, v in SETTINGS.items() if k not in ("height", "width", "pixels_only", "expose_distractions")}
     options = dict(height=32, width=32, device=DEVICE, pixels_only=False, expose_distractions=True)
-    grouped = dcs.make_grouped_env("cartpole", "swingup", [({**base, **s}, n) for s, n in groups], **options)
     n = sum(count for _, count in groups)
-    assert grouped.batch_size == (n,)
     actions = _actions(EPISODE + 2, n)
-    together = _run(grouped, 11, actions)
-    grouped.close()
+    together = {}
+    for seed in (11, 12):
+        grouped = dcs.make_grouped_env("cartpole", "swingup", [({**base, **s}, c) for s, c in groups], **options,
+                                       seed=seed)
+        assert grouped.batch_size == (n,)
+        together[seed] = _run(grouped, actions)
+        grouped.close()
     start = 0
     for settings, count in groups:
-        alone_env = make_env("cartpole", "swingup", num_envs=count, backend="warp", **{**base, **settings}, **options)
-        alone = _run(alone_env, 11, actions[:, start:start + count])
+        alone_env = make_env("cartpole", "swingup", num_envs=count, backend="warp", **{**base, **settings}, **options,
+                             seed=11)
+        alone = _run(alone_env, actions[:, start:start + count])
         alone_env.close()
-        for t, (mine, theirs) in enumerate(zip(together, alone)):
+        for t, (mine, theirs) in enumerate(zip(together[11], alone)):
             part = mine[start:start + count]
             assert set(part.keys(True, True)) == set(theirs.keys(True, True))
             for key in theirs.keys(True, True):
                 assert torch.equal(part[key], theirs[key]), f"group at {start}, step {t}: {key} differs"
+        frames = [torch.stack([out["pixels"] for out in alone]),
+                  torch.stack([out["pixels"][start:start + count] for out in together[12]])]
+        for i in range(count):  # each env of the group: another start, other frames
+            assert not torch.equal(together[12][0]["position"][start + i], alone[0]["position"][i]), f"env {start + i}"
+            assert not torch.equal(frames[0][:, i], frames[1][:, i]), f"env {start + i}"
         start += count
 
 
@@ -815,7 +900,7 @@ def test_a_batch_in_processes_runs_the_episodes_and_frames_of_one_batch():
         assert env.batch_size == (n,) and isinstance(env, dcs.ParallelSuiteEnv) == (processes == 2)
         if processes and physics_threads() <= processes:  # a core or less per process: its physics on one thread
             here = env._here.env.physics  # the first process's share, stepped in this one
-            assert here.threads == 1 and not here._trials
+            assert here.threads == 1
         env.set_seed(9)
         td, run = env.reset(), []
         run.append(td.clone())

@@ -2,8 +2,10 @@
 
 Each check imports modules in a fresh interpreter with ``dcs_torchrl``'s ``__init__`` left out
 (the package's own ``__init__`` imports everything, ``ParallelSuiteEnv`` included), and reads
-``sys.modules`` after: what those modules pull in themselves.
+``sys.modules`` after: what those modules pull in themselves. Imports inside functions, which no
+import runs, are read from the source.
 """
+import ast
 import json
 import subprocess
 import sys
@@ -62,17 +64,48 @@ ROOMS = {
     "vector": ["dcs_torchrl.vector", "dcs_torchrl.vector.batched", "dcs_torchrl.vector.parallel",
                "dcs_torchrl.vector.process_pool"],
     "agents": ["dcs_torchrl.methods", "dcs_torchrl.results", "dcs_torchrl.modules", "dcs_torchrl.objectives"],
-    "evaluation": ["dcs_torchrl.evaluation", "dcs_torchrl.evaluation.scheduling", "dcs_torchrl.pretrained"],
-    "jobs": ["dcs_torchrl.algorithms", "dcs_torchrl.training", "dcs_torchrl.datasets", "dcs_torchrl.experiments",
-             "dcs_torchrl.report", "dcs_torchrl.robustness", "dcs_torchrl.gym_env", "dcs_torchrl.gallery"],
+    "evaluation": ["dcs_torchrl.evaluation.protocol", "dcs_torchrl.evaluation"],
+    # loading agents (their checkpoints, their training's pixel envs) and evaluating many settings of them
+    # are jobs on training's run directories
+    "jobs": ["dcs_torchrl.algorithms", "dcs_torchrl.training", "dcs_torchrl.pretrained", "dcs_torchrl.evaluation.scheduling",
+             "dcs_torchrl.datasets", "dcs_torchrl.experiments", "dcs_torchrl.report", "dcs_torchrl.robustness",
+             "dcs_torchrl.gym_env", "dcs_torchrl.gallery"],
 }
+
+#: Imports inside functions that reach a room above, each a door a user opens at run time: ``make_env(num_envs=N)``
+#: builds N envs (``vector``) from the envs room's one entry point.
+DOORS = {("dcs_torchrl.envs", "vector")}
 
 
 def _room_of(module: str) -> str | None:
-    for room, modules in ROOMS.items():
-        if any(module == m or module.startswith(m + ".") for m in modules):
-            return room
-    return None
+    """The room of the longest entry of :data:`ROOMS` that ``module`` is or lies under."""
+    best = max(((len(m), room) for room, modules in ROOMS.items() for m in modules
+                if module == m or module.startswith(m + ".")), default=None)
+    return None if best is None else best[1]
+
+
+def _module_of(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports_in_functions(path: Path) -> list[tuple[int, str]]:
+    """``(line, module)`` of each import of the package inside a function (or method) of ``path``."""
+    module, tree = _module_of(path), ast.parse(path.read_text())
+    found = []
+    for function in ast.walk(tree):
+        if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in ast.walk(function):
+            if isinstance(node, ast.Import):
+                found += [(node.lineno, alias.name) for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:  # relative: from the package the module is in
+                    package = module.split(".")[: len(module.split(".")) - node.level + (path.name == "__init__.py")]
+                    base = ".".join(package + ([node.module] if node.module else []))
+                found += [(node.lineno, f"{base}.{alias.name}") for alias in node.names]
+    return [(line, name) for line, name in found if name.startswith("dcs_torchrl.")]
 
 
 def test_each_room_imports_nothing_from_the_rooms_above_it():
@@ -85,6 +118,21 @@ def test_each_room_imports_nothing_from_the_rooms_above_it():
         above = set(order[i + 1:])
         upward = sorted(m for m in loaded[room] if _room_of(m) in above)
         assert not upward, f"importing the {room} room loads {upward}, of rooms above it"
+
+
+def test_imports_inside_functions_keep_to_the_rooms_too():
+    """An import run only when a function is called is a dependency all the same: none reaches a room above
+    its module's, but for the :data:`DOORS` (a cycle through rooms otherwise hides from the import probe)."""
+    order = list(ROOMS)
+    upward = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        module = _module_of(path)
+        room = _room_of(module)
+        for line, name in _imports_in_functions(path):
+            target = _room_of(name)
+            if target is not None and order.index(target) > order.index(room) and (module, target) not in DOORS:
+                upward.append(f"{module}:{line} ({room}) imports {name} ({target})")
+    assert not upward, upward
 
 
 def test_every_module_of_the_package_has_a_room():

@@ -208,3 +208,37 @@ def test_every_private_symbol_the_package_reads_is_listed():
     unlisted = {name: where for name, where in read.items()
                 if name not in defined | listed and any(hasattr(owner, name) for owner in OWNERS)}
     assert unlisted == {}, "route these through dcs_torchrl/_compat/private_api.py (and list them in PRIVATE_SYMBOLS)"
+
+
+def test_mujoco_c_api_is_the_bindings_library_and_struct_addresses_their_structs():
+    """dcs_torchrl.vector._mjstep calls MuJoCo's C step functions on MjModel._address / MjData._address: the
+    library in the mujoco wheel's folder is the bindings' own (its version), and the addresses are their structs'."""
+    import os
+
+    api = _private_api.mujoco_c_api()
+    assert os.path.dirname(api.path) == os.path.dirname(mujoco.__file__)
+    assert sorted(api.functions) == ["mj_step", "mj_step1", "mj_step2"] and all(api.functions.values())
+    physics = suite.load("cartpole", "swingup", task_kwargs={"random": 0}).physics
+    model, data = physics.model.ptr, physics.data.ptr
+    assert _private_api.struct_addresses(model, data) == (model._address, data._address)
+
+
+def test_a_wrong_or_missing_struct_address_is_refused_naming_the_mujoco_to_pin(monkeypatch):
+    """An upgrade whose ``_address`` is gone or no longer the struct's fails at the batch's construction, with
+    the MuJoCo version to pin, not inside a compiled step."""
+    first, other = (suite.load("cartpole", "swingup", task_kwargs={"random": i}) for i in range(2))
+    for env in (first, other):
+        env.reset()
+    model, data = first.physics.model.ptr, first.physics.data.ptr
+    elsewhere = other.physics.data.ptr._address  # another cartpole's data: readable, another state
+    monkeypatch.setattr(mujoco.MjData, "_address", property(lambda self: elsewhere))
+    with pytest.raises(RuntimeError, match=r"mj_getState on MjModel._address / MjData._address differs.*"
+                                           r"install mujoco==3\.17\.0"):
+        _private_api.struct_addresses(model, data)
+
+    def gone(self):
+        raise AttributeError("'mujoco._structs.MjData' object has no attribute '_address'")
+
+    monkeypatch.setattr(mujoco.MjData, "_address", property(gone))
+    with pytest.raises(RuntimeError, match=r"the bindings' structs have no C address.*pip install 'mujoco==3\.17\.0'"):
+        _private_api.struct_addresses(model, data)

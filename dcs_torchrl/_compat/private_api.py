@@ -74,6 +74,12 @@ dm_control ``Environment._step_count``,        :mod:`dcs_torchrl.vector.batch_ph
                                                and keeps it there; a renderer renders once when
                                                made, so that renderers made in one thread and
                                                rendering in several never build it at once.
+``MjModel._address``, ``MjData._address``;    :mod:`dcs_torchrl.vector._mjstep`: the batch's
+the ``mujoco`` wheel's shared library          physics stepped by one compiled call over all
+(``libmujoco``) and its C functions            the worlds (no Python per world) on each world's
+``mj_step``, ``mj_step1``, ``mj_step2``        own ``MjData``; the bindings give no address of
+                                               a struct nor of a C function
+                                               (:func:`mujoco_c_api` checks them all).
 Warp's ``Device.runtime``, ``.context_guard``  :mod:`dcs_torchrl.render.warp`: MuJoCo Warp
 and ``Runtime.default_device``                 launches on the process's one default device,
                                                which ``wp.ScopedDevice`` sets and puts back per
@@ -84,9 +90,14 @@ and ``Runtime.default_device``                 launches on the process's one def
 """
 from __future__ import annotations
 
+import ctypes
+import functools
+import glob
+import os
 import weakref
 from typing import NamedTuple
 
+import numpy as np
 from torchrl.envs.transforms.utils import _set_missing_tolerance as set_missing_tolerance
 from torchrl._utils import seed_generator
 from torchrl.objectives.utils import _vmap_func as vmap_func
@@ -94,9 +105,10 @@ from torchrl.objectives.utils import _vmap_func as vmap_func
 __all__ = [
     "PRIVATE_SYMBOLS", "base_set_seed", "build_default_value_estimator", "container_of", "control_timestep", "dm_physics",
     "episode_clock", "set_episode_clock", "sub_steps",
-    "free_foreign_render_contexts", "priority_weight", "reduce_loss", "RenderOffsets", "render_offsets", "replace_set_seed",
+    "free_foreign_render_contexts", "MUJOCO_C_API", "MujocoCApi", "mujoco_c_api",
+    "priority_weight", "reduce_loss", "RenderOffsets", "render_offsets", "replace_set_seed",
     "sac_alpha_loss", "seed_generator",
-    "set_missing_tolerance", "value_estimator_kwargs", "vmap_func",
+    "set_missing_tolerance", "struct_addresses", "value_estimator_kwargs", "vmap_func",
 ]
 
 #: ``(owner, attribute, user)`` of every private symbol above (the test checks each one).
@@ -122,7 +134,9 @@ PRIVATE_SYMBOLS = (
           for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.render.warp")
           for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel")) + (
     ("warp.Device", "runtime", "dcs_torchrl.render.warp"), ("warp.Device", "context_guard", "dcs_torchrl.render.warp"),
-    ("warp._src.context.Runtime", "default_device", "dcs_torchrl.render.warp"))
+    ("warp._src.context.Runtime", "default_device", "dcs_torchrl.render.warp"),
+    ("mujoco.MjModel", "_address", "dcs_torchrl.vector._mjstep"),
+    ("mujoco.MjData", "_address", "dcs_torchrl.vector._mjstep"))
 
 
 def episode_clock(dm_env) -> tuple[int, float, bool]:
@@ -218,3 +232,73 @@ def render_offsets(context, index: int) -> RenderOffsets:
         raise ValueError(f"camera {index} of this render context renders no colours or no segmentation: "
                          "make it with render_rgb=True and render_seg=True.")
     return RenderOffsets(rgb, seg, int(sum(int(w) * int(h) for w, h in resolutions[:index])))
+
+
+#: The MuJoCo whose C API :func:`mujoco_c_api` was written and checked against (the ``[warp]`` extra's).
+MUJOCO_C_API = "3.17"
+#: The C functions of MuJoCo's library the batch's compiled physics calls, ``(name, argument count)``
+#: (``void mj_step(const mjModel*, mjData*)`` and its two halves).
+_STEP_FUNCTIONS = (("mj_step", 2), ("mj_step1", 2), ("mj_step2", 2))
+
+
+class MujocoCApi(NamedTuple):
+    """MuJoCo's C library as the ``mujoco`` package's bindings load it."""
+
+    path: str  #: the shared library in the ``mujoco`` wheel's folder
+    library: ctypes.CDLL  #: it, opened by ctypes (the bindings' own copy: the same version)
+    functions: dict  #: the address of each of ``mj_step``, ``mj_step1``, ``mj_step2``
+
+
+def _c_api_error(problem: str) -> RuntimeError:
+    import mujoco
+
+    return RuntimeError(f"{problem} (mujoco {mujoco.__version__}): dcs_torchrl.vector's batch physics calls MuJoCo's "
+                        f"C library directly and was checked against mujoco {MUJOCO_C_API} (the [warp] extra's "
+                        f"mujoco>=3.17,<4); install mujoco=={MUJOCO_C_API}.0 (pip install 'mujoco=={MUJOCO_C_API}.0'), "
+                        "or port dcs_torchrl/_compat/private_api.py's mujoco_c_api to this version.")
+
+
+@functools.cache
+def mujoco_c_api() -> MujocoCApi:
+    """MuJoCo's C library from the ``mujoco`` wheel's folder (``libmujoco.so.*``, ``libmujoco.*.dylib`` or
+    ``mujoco.dll``), checked to be the library the bindings call (its ``mj_version``) and to export the step
+    functions; raises ``RuntimeError`` naming the version to pin if not."""
+    import mujoco
+
+    folder = os.path.dirname(mujoco.__file__)
+    found = sorted(path for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco.dll")
+                   for path in glob.glob(os.path.join(folder, pattern)))
+    if len(found) != 1:
+        raise _c_api_error(f"expected one MuJoCo shared library in {folder}, found {found}")
+    library = ctypes.CDLL(found[0])
+    try:
+        version, functions = library.mj_version, {name: library[name] for name, _ in _STEP_FUNCTIONS}
+    except AttributeError as error:
+        raise _c_api_error(f"{found[0]} lacks a function: {error}") from None
+    version.restype, version.argtypes = ctypes.c_int, []
+    if version() != mujoco.mj_version():
+        raise _c_api_error(f"{found[0]} is MuJoCo {version()}, the bindings {mujoco.mj_version()}")
+    for name, count in _STEP_FUNCTIONS:
+        functions[name].restype, functions[name].argtypes = None, [ctypes.c_void_p] * count
+    library.mj_getState.restype = None  # void mj_getState(const mjModel*, const mjData*, mjtNum*, int)
+    library.mj_getState.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
+    return MujocoCApi(found[0], library, {name: ctypes.cast(f, ctypes.c_void_p).value for name, f in functions.items()})
+
+
+def struct_addresses(model, data) -> tuple[int, int]:
+    """The C addresses of an ``MjModel`` and an ``MjData`` of it (their ``_address``), checked: MuJoCo's
+    C ``mj_getState`` called on them through :func:`mujoco_c_api` gives the bindings' ``mj_getState``."""
+    import mujoco
+
+    try:
+        addresses = int(model._address), int(data._address)
+    except AttributeError as error:
+        raise _c_api_error(f"the bindings' structs have no C address: {error}") from None
+    library, spec = mujoco_c_api().library, int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    expected = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, expected, spec)
+    state = np.full_like(expected, np.nan)
+    library.mj_getState(*addresses, state.ctypes.data, spec)
+    if not np.array_equal(state, expected, equal_nan=True):
+        raise _c_api_error("MuJoCo's C mj_getState on MjModel._address / MjData._address differs from the bindings'")
+    return addresses

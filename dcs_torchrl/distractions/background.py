@@ -36,13 +36,20 @@ def as_video_source(videos, split: str = "train") -> VideoSource:
 
 def bounce(frame: int, direction: int, length: int, n_steps: int) -> tuple[int, int]:
     """Plays ``n_steps`` frames forward or backward, reversing at the first and last frame."""
-    if length < 2:
-        return 0, direction
-    for _ in range(n_steps):
-        if not 0 <= frame + direction < length:
-            direction = -direction
-        frame += direction
-    return frame, direction
+    frames, directions = bounce_many(*(np.array([x], np.int64) for x in (frame, direction, length, n_steps)))
+    return int(frames[0]), int(directions[0])
+
+
+def bounce_many(frame: np.ndarray, direction: np.ndarray, length: np.ndarray, n_steps: np.ndarray):
+    """:func:`bounce` over arrays (int64), in closed form: a clip of L frames played back and forth is a
+    cycle of 2 (L - 1) phases, phase p showing frame p going forward and frame 2 (L - 1) - p going back."""
+    period = np.maximum(2 * (length - 1), 1)
+    phase = np.where(direction > 0, frame, period - frame) % period
+    new = (phase + n_steps) % period
+    moved = (length >= 2) & (n_steps > 0)
+    frames = np.where(moved, np.where(new <= length - 1, new, period - new), frame)
+    directions = np.where(moved, np.where((new > 0) & (new <= length - 1), 1, -1), direction)
+    return frames, directions
 
 
 class BackgroundDistraction(DistractionTransform):
@@ -110,7 +117,7 @@ class BackgroundDistraction(DistractionTransform):
 
     state_name = "background"
     seed_tag = 3
-    step_attributes = frozenset({"_video", "_frame", "_direction", "_pending", "_dirty"})
+    step_attributes = frozenset({"_pending"})
 
     def __init__(
         self,
@@ -134,13 +141,7 @@ class BackgroundDistraction(DistractionTransform):
             raise ValueError(f"texture_size must be a positive number of pixels, got {texture_size}.")
         self.texture_size = int(texture_size)
         self.reference_blend = bool(reference_blend)
-        self._video, self._frame, self._direction = -1, -1, 1
         self._pending: list[np.ndarray] | None = None
-        self._dirty = False
-        #: whether each new sky is also written into the model's texture (``tex_data``), where MuJoCo's GL
-        #: context reads it; the batched Warp env, whose renderer takes the sky from
-        #: :meth:`upload_textures` alone, sets it False
-        self.writes_model = True
         super().__init__(seed=seed, expose=expose)
 
     def reseed(self, seed: int | None) -> None:
@@ -177,46 +178,50 @@ class BackgroundDistraction(DistractionTransform):
             self._sky_faces = [cv2.resize(f, (s, s), interpolation=cv2.INTER_AREA) for f in faces]
 
     # --------------------------------------------------------------- contract
+    def _new_worlds(self, scene: Scene) -> "BackgroundWorlds":
+        return BackgroundWorlds(1, scene.frame_skip)
+
     def _start(self, physics) -> None:
         if self.ground_alpha is not None:
             physics.model.mat_rgba[self._grid, 3] = self.ground_alpha
         if not self.active:
             return
-        rng = self._rng
-        self._video = int(rng.integers(len(self.videos)))
-        self._frames = self.videos.frames(self._video, self.texture_size)
-        self._frame = int(rng.integers(len(self._frames)))
-        self._direction = 1 if rng.random() < 0.5 else -1
-        self._dirty = True
+        self._frames = self._worlds.start(self.row, self)
         if self.reference_blend and self._sky_faces is not None:
             under = self._sky_faces if self._shown is None else self._shown
             self._dimmed = [np.float32(1.0 - self.blend) * face.astype(np.float32) for face in under]
 
-    def _advance(self, n_steps: int) -> None:
-        if self.active and self.dynamic:
-            self._frame, self._direction = bounce(self._frame, self._direction, len(self._frames), n_steps)
-            self._dirty = True
-
     def _edit_scene(self, physics) -> None:
-        if not (self.active and self._dirty):
+        if not (self.active and self._worlds.changed[self.row]):
             return
         model, sky, s = physics.model, self._sky, self.texture_size
-        frame = self._frames[self._frame]
-        if self._sky_faces is None:
-            faces = [frame]  # a frame of the cached, read-only clip: shown again and again
-        elif self.reference_blend:  # the 2021 code's arithmetic: float32, truncated
-            video = np.float32(self.blend) * frame.astype(np.float32)
-            faces = self._shown = [(dimmed + video).astype(np.uint8) for dimmed in self._dimmed]
-        else:
-            faces = [cv2.addWeighted(frame, self.blend, face, 1.0 - self.blend, 0.0) for face in self._sky_faces]
-        if self.writes_model:
-            model.tex_width[sky] = s
-            model.tex_height[sky] = s * len(faces)
-            adr = int(model.tex_adr[sky])
-            for i, face in enumerate(faces):
-                model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
+        faces = self.sky()
+        model.tex_width[sky] = s
+        model.tex_height[sky] = s * len(faces)
+        adr = int(model.tex_adr[sky])
+        for i, face in enumerate(faces):
+            model.tex_data[adr + i * s * s * 3 : adr + (i + 1) * s * s * 3] = face.reshape(-1)
         self._pending = faces
-        self._dirty = False
+
+    def sky(self) -> list[np.ndarray]:
+        """The sky this world shows now, as uint8 ``[texture_size, texture_size, 3]`` faces: one (a video
+        frame alone, on all six) or six (the frame blended onto the model's sky); marks it taken."""
+        self._worlds.changed[self.row] = False
+        frame = self._frames[self._worlds.frame[self.row]]
+        if self._sky_faces is None:
+            return [frame]  # a frame of the cached, read-only clip: shown again and again
+        if self.reference_blend:  # the 2021 code's arithmetic: float32, truncated
+            video = np.float32(self.blend) * frame.astype(np.float32)
+            self._shown = [(dimmed + video).astype(np.uint8) for dimmed in self._dimmed]
+            return self._shown
+        return [cv2.addWeighted(frame, self.blend, face, 1.0 - self.blend, 0.0) for face in self._sky_faces]
+
+    @property
+    def sky_faces(self) -> int:
+        """Faces of the sky this distraction shows (:meth:`sky`): 1 (a frame alone) or 6 (blended onto
+        the model's sky); 0 where it shows no video."""
+        self._bind()
+        return 0 if not self.active else 1 if self._sky_faces is None else 6
 
     def upload_textures(self, context) -> None:
         """Called by RenderPixels right before it renders: hands over the new sky, if any.
@@ -231,15 +236,10 @@ class BackgroundDistraction(DistractionTransform):
     def shown_frame(self) -> tuple[np.ndarray, int] | None:
         """What the sky shows where it is a video frame alone (``blend`` 1): ``(frames, t)``, the clip's
         frames (uint8 ``[T, texture_size, texture_size, 3]``, the array the process's frame cache
-        shares) and the frame's index; ``None`` where the sky shows no video or a blend. A batched
-        renderer that indexes frames takes the sky so, in place of :meth:`upload_textures`."""
+        shares) and the frame's index; ``None`` where the sky shows no video or a blend."""
         if not self.active or self._sky_faces is not None:
             return None
-        self._pending = None
-        return self._frames, self._frame
-
-    def _state(self) -> np.ndarray:
-        return np.array([self._video, self._frame], dtype=np.int64)
+        return self._frames, int(self._worlds.frame[self.row])
 
     def _state_like(self, scene: Scene) -> np.ndarray:
         return np.array([-1, -1], dtype=np.int64)
@@ -249,3 +249,51 @@ class BackgroundDistraction(DistractionTransform):
             f"{type(self).__name__}(videos={self.videos!r}, dynamic={self.dynamic}, "
             f"blend={self.blend}, ground_alpha={self.ground_alpha}, reference_blend={self.reference_blend})"
         )
+
+
+class BackgroundWorlds:
+    """The background distraction of N worlds as arrays: each world's video, frame and direction (drawn at
+    its episode start, :meth:`start`), played for all the worlds at once (:meth:`advance`). A
+    :class:`BackgroundDistraction` on one env keeps its state in a one-world instance; a batch keeps
+    its worlds' in one (:meth:`BackgroundDistraction.share`).
+
+    Args:
+        n (int): the worlds.
+        frame_skip (int or array of int): frames a world's video plays per agent step (dynamic).
+    """
+
+    def __init__(self, n: int, frame_skip):
+        self.n = n
+        self.frame_skip = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)).copy()
+        self.video = np.full(n, -1, np.int64)
+        self.frame = np.full(n, -1, np.int64)
+        self.direction = np.ones(n, np.int64)
+        self.length = np.zeros(n, np.int64)
+        self.moving = np.zeros(n, bool)  # the video plays (active and dynamic)
+        self.changed = np.zeros(n, bool)  # the frame shown changed since the world's sky was last taken
+
+    def start(self, row: int, distraction: BackgroundDistraction) -> np.ndarray:
+        """World ``row``'s episode start: a video, a frame of it and a direction drawn from
+        ``distraction``'s generator; returns the video's frames (uint8 ``[T, side, side, 3]``)."""
+        rng = distraction._rng
+        video = int(rng.integers(len(distraction.videos)))
+        frames = distraction.videos.frames(video, distraction.texture_size)
+        self.video[row], self.length[row] = video, len(frames)
+        self.frame[row] = int(rng.integers(len(frames)))
+        self.direction[row] = 1 if rng.random() < 0.5 else -1
+        self.moving[row] = distraction.dynamic
+        self.changed[row] = True
+        return frames
+
+    def advance(self, rows: np.ndarray) -> None:
+        """One agent step (each world's frame skip in frames) of the videos of the worlds ``rows`` that play."""
+        rows = rows[self.moving[rows]]
+        if len(rows):
+            self.frame[rows], self.direction[rows] = bounce_many(self.frame[rows], self.direction[rows],
+                                                                 self.length[rows], self.frame_skip[rows])
+            self.changed[rows] = True
+
+    def states(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """The exposed state (int64 ``[video, frame]``, ``[-1, -1]`` without videos) of the worlds ``rows`` (all: ``None``)."""
+        rows = np.arange(self.n) if rows is None else rows
+        return np.stack([self.video[rows], self.frame[rows]], axis=-1)

@@ -74,8 +74,13 @@ def _listen_to_seeds(base_env, transform) -> None:
 class DistractionTransform(Transform):
     """Base class of the suite's distractions (not used directly).
 
-    Subclasses set ``state_name`` / ``seed_tag`` and implement ``_start(physics)``,
-    ``_advance(n)``, ``_edit_scene(physics)`` and ``_state()``.
+    A distraction's state lives in arrays over worlds (its ``Worlds`` class: ``CameraWorlds``,
+    ``ColorWorlds``, ``BackgroundWorlds``), row :attr:`row` of them: on one env a one-world instance of its
+    own, in a batch the batch's (:meth:`share`), which then steps and places every world at once. So one
+    env and a batch run the same code. Subclasses set ``state_name`` / ``seed_tag`` and implement
+    ``_new_worlds(scene)``, ``_start(physics)`` (the episode start of its row), ``_edit_scene(physics)``
+    (its row into the one env's scene) and ``_state_like(scene)``; the ``Worlds`` class implements
+    ``advance(rows)`` and ``states(rows)``.
 
     Keyword Args:
         seed (int, optional): seed of this distraction's generator; ``None`` draws fresh
@@ -89,14 +94,14 @@ class DistractionTransform(Transform):
     seed_tag: ClassVar[int]
     #: The attributes a step rewrites, plain Python or NumPy values (never a tensor, parameter or
     #: module): set straight into the instance's ``__dict__``, past ``nn.Module.__setattr__``'s
-    #: bookkeeping, which a step of every env of a batch would otherwise pay for each of them.
+    #: bookkeeping.
     step_attributes: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, seed: int | None = None, expose: bool = False):
         self.expose = bool(expose)
         super().__init__(in_keys=[], out_keys=[("distractions", self.state_name)] if expose else [])
+        self.__dict__.update(_scene=None, _worlds=None, row=0, _rows=np.zeros(1, np.int64), _owner=False)
         self.reseed(seed)
-        self.__dict__["_scene"] = None
 
     def __setattr__(self, name: str, value) -> None:
         if name in self.step_attributes:
@@ -108,6 +113,35 @@ class DistractionTransform(Transform):
     def reseed(self, seed: int | None) -> None:
         """Restarts this distraction's random stream from ``seed``; takes effect at the next reset."""
         self._rng = generator(seed, self.seed_tag)
+        worlds = self.__dict__.get("_worlds")
+        if worlds is not None and hasattr(worlds, "noise"):
+            worlds.noise.use(self.row, self._rng)
+
+    def share(self, worlds, row: int) -> None:
+        """Keeps this distraction's state in row ``row`` of ``worlds`` (a batch's arrays, of this
+        distraction's ``Worlds`` class), whose owner then advances and places every world at once: this
+        transform's own step and scene edit then leave the scene to it; its episode starts still draw
+        the row from its own generator."""
+        self.__dict__.update(_worlds=worlds, row=row, _rows=np.array([row]), _owner=False)
+        if hasattr(worlds, "noise"):
+            worlds.noise.use(row, self._rng)
+
+    def clone(self):
+        """TorchRL's shallow copy (for a ``parent`` view or a new env), without this distraction's state: a
+        clone that shared its arrays would redirect their noise to its own generator when reseeded."""
+        copy = super().clone()
+        copy.__dict__.update(_worlds=None, row=0, _rows=np.zeros(1, np.int64), _owner=False)
+        return copy
+
+    @property
+    def worlds(self):
+        """The arrays this distraction's state lives in (row :attr:`row`); ``None`` before its first reset."""
+        return self.__dict__.get("_worlds")
+
+    def _own_worlds(self, scene: Scene) -> None:
+        if self.__dict__.get("_worlds") is None:
+            self.share(self._new_worlds(scene), 0)
+            self.__dict__["_owner"] = True
 
     def set_container(self, container) -> None:
         super().set_container(container)
@@ -144,25 +178,23 @@ class DistractionTransform(Transform):
     # ---------------------------------------------------------- TorchRL hooks
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
         scene = self._bind()
+        self._own_worlds(scene)
         self._start(scene.physics)
-        self._edit_scene(scene.physics)
+        if self._owner:
+            self._edit_scene(scene.physics)
         return self._write_state(tensordict_reset)
 
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
-        self.step_scene()
+        if self.__dict__.get("_owner"):  # an agent step: frame_skip control steps of the walk, the scene edited
+            self._worlds.advance(self._rows)
+            self._edit_scene(self._bind().physics)
         return self._write_state(next_tensordict)
-
-    def step_scene(self) -> None:
-        """What an agent step does to the scene: the walk advanced by ``frame_skip`` control steps,
-        the scene edited. ``_step`` calls it; so does a batched env that steps this transform's
-        physics itself (:class:`dcs_torchrl.vector.batched.BatchedSuiteEnv`)."""
-        scene = self._bind()
-        self._advance(scene.frame_skip)
-        self._edit_scene(scene.physics)
 
     def state(self) -> np.ndarray:
         """The distraction's current state, as ``expose`` writes it."""
-        return self._state()
+        if self.worlds is None:
+            raise RuntimeError(f"{type(self).__name__} has no state before its env's first reset: call env.reset().")
+        return self._worlds.states(self._rows)[0]
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         raise RuntimeError(
@@ -187,16 +219,14 @@ class DistractionTransform(Transform):
         return observation_spec
 
     # ------------------------------------------------------ subclass contract
+    def _new_worlds(self, scene: Scene):
+        """A one-world instance of this distraction's ``Worlds`` class for ``scene``'s env."""
+        raise NotImplementedError
+
     def _start(self, physics) -> None:
         raise NotImplementedError
 
-    def _advance(self, n_steps: int) -> None:
-        raise NotImplementedError
-
     def _edit_scene(self, physics) -> None:
-        raise NotImplementedError
-
-    def _state(self) -> np.ndarray:
         raise NotImplementedError
 
     def _state_like(self, scene: Scene) -> np.ndarray:

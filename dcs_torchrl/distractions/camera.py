@@ -7,10 +7,12 @@ import numpy as np
 
 from dcs_torchrl import presets
 from dcs_torchrl._scene import Scene
+from dcs_torchrl.distractions import camera_kernels as ck
 from dcs_torchrl.distractions import camera_math as cm
 from dcs_torchrl.distractions.base import DistractionTransform, check_scale
+from dcs_torchrl.distractions.noise import NoiseBank
 
-_FIXED, _TRACK, _TRACKCOM = 0, 1, 2
+_FIXED, _TRACK, _TRACKCOM = ck.FIXED, ck.TRACK, ck.TRACKCOM
 _MODE_NAMES = ("fixed", "track", "trackcom", "targetbody", "targetbodycom")
 # A camera this close to straight above its focus uses the pole-safe look-at (the
 # reference's reacher rule); every other camera is kept in the upper frontal quadrant.
@@ -56,7 +58,6 @@ class CameraDistraction(DistractionTransform):
 
     state_name = "camera"
     seed_tag = 1
-    step_attributes = frozenset({"_pose"})
 
     def __init__(
         self,
@@ -75,7 +76,6 @@ class CameraDistraction(DistractionTransform):
         self.upper_quadrant = upper_quadrant
         self._requested_camera = camera_id
         self.camera_id: int | None = None
-        self._pose: cm.Pose | None = None
         super().__init__(seed=seed, expose=expose)
 
     @property
@@ -101,66 +101,17 @@ class CameraDistraction(DistractionTransform):
         self.camera_id = cid
         self._mode = mode
 
-    # --------------------------------------------------------------- geometry
-    def _origin(self, data) -> np.ndarray:
-        """Centre of the camera's sphere: world origin, or the tracked body / centre of mass."""
-        body = self._body
-        if self._mode == _TRACKCOM:
-            return data.subtree_com[body]
-        if self._mode == _TRACK:
-            return data.xpos[body]
-        return np.zeros(3)
-
-    def _focus(self, data) -> tuple[float, float, float]:
-        """The point the task's camera looks at: on its view ray, at its distance to the agent."""
-        cid = self.camera_id
-        position = data.cam_xpos[cid].tolist()
-        distance = math.dist(position, data.subtree_com[1].tolist())
-        xmat = data.cam_xmat[cid].tolist()  # row-major: the camera's z axis is (xmat[2], xmat[5], xmat[8])
-        return tuple(p - distance * axis for p, axis in zip(position, xmat[2::3]))
-
     # --------------------------------------------------------------- contract
-    def _start(self, physics) -> None:
-        model, data = physics.model, physics.data
-        self._body = int(model.cam_bodyid[self.camera_id])
-        offset = data.cam_xpos[self.camera_id] - self._origin(data)
-        radius0, azimuth0, elevation0 = cm.cart_to_sphere(*offset)
-        self._turn = cm.frame_turn(azimuth0)
-        self._turn_cos_sin = (math.cos(self._turn), math.sin(self._turn))
-        azimuth0 -= self._turn
-        upper = self.upper_quadrant
-        if upper is None:
-            upper = elevation0 >= _OVERHEAD_ELEVATION
-        self._look_at = cm.look_at_upright if upper else cm.look_at_shortest
-        self._range = cm.pose_range(radius0, azimuth0, elevation0, self.scale, self.dynamic, upper)
-        if not self.active:
-            self._pose = cm.Pose(radius0, azimuth0, elevation0, 0.0)
-            return
-        self._fixed_focus = self._focus(data) if self._mode == _FIXED else None
-        # The reference runs one random-walk step right after sampling (also when static):
-        # it canonicalises the spherical coordinates and clips them to the range.
-        self._pose = cm.walk_many(cm.sample_pose(self._rng, self._range), self._range, self._rng, 1)
+    def _new_worlds(self, scene: Scene) -> "CameraWorlds":
+        return CameraWorlds(1, scene.frame_skip)
 
-    def _advance(self, n_steps: int) -> None:
-        if self.active and self.dynamic:
-            self._pose = cm.walk_many(self._pose, self._range, self._rng, n_steps)
+    def _start(self, physics) -> None:
+        self._worlds.start(self.row, self, physics)
 
     def _edit_scene(self, physics) -> None:
-        if not self.active:
-            return
-        data, pose, cid = physics.data, self._pose, self.camera_id
-        x, y, z = cm.sphere_to_cart(pose.radius, pose.azimuth, pose.elevation)
-        c, s = self._turn_cos_sin  # the frame's quarter turn about z, in floats: this runs every step
-        ox, oy, oz = self._origin(data).tolist()
-        position = (ox + c * x - s * y, oy + s * x + c * y, oz + z)
-        focus = self._fixed_focus if self._fixed_focus is not None else self._focus(data)
-        if self.blind:
-            focus = tuple(2.0 * p - f for p, f in zip(position, focus))  # look the other way
-        data.cam_xpos[cid] = position
-        data.cam_xmat[cid] = self._look_at(focus, position, pose.roll).ravel()
-
-    def _state(self) -> np.ndarray:
-        return self._pose.as_array(self._turn)
+        data = physics.data
+        views = [a[None] for a in (data.cam_xpos, data.cam_xmat, data.subtree_com, data.xpos)]
+        self._worlds.place(self._rows, 0, *views, views[0], views[1])
 
     def _state_like(self, scene: Scene) -> np.ndarray:
         return np.zeros(4, dtype=np.float32)
@@ -170,3 +121,103 @@ class CameraDistraction(DistractionTransform):
             f"{type(self).__name__}(scale={self.scale}, dynamic={self.dynamic}, "
             f"camera_id={self._requested_camera}, blind={self.blind})"
         )
+
+
+class CameraWorlds:
+    """The camera distraction of N worlds as arrays: each world's pose, velocity and range (drawn at its
+    episode start, :meth:`start`), advanced and placed for all the worlds at once (:meth:`advance`,
+    :meth:`place`, compiled: :mod:`dcs_torchrl.distractions.camera_kernels`). A
+    :class:`CameraDistraction` on one env keeps its state in a one-world instance; a batch keeps its
+    worlds' in one (:meth:`CameraDistraction.share`).
+
+    Args:
+        n (int): the worlds.
+        frame_skip (int or array of int): control steps a world walks per agent step.
+    """
+
+    def __init__(self, n: int, frame_skip):
+        self.n = n
+        self.frame_skip = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)).copy()
+        self.pose = np.zeros((n, 4))  # radius, azimuth, elevation, roll (the turned frame)
+        self.velocity = np.zeros((n, 3))
+        self.roll_velocity = np.zeros(n)
+        self.limits = np.zeros((n, len(ck.LIMITS)))
+        self.turn = np.zeros(n)  # the frame's turn about z (a multiple of pi/2) ...
+        self.turn_cos_sin = np.zeros((n, 2))  # ... as cos, sin
+        self.camera = np.zeros(n, np.int64)
+        self.mode = np.zeros(n, np.int64)
+        self.body = np.zeros(n, np.int64)
+        self.upright = np.zeros(n, bool)
+        self.blind = np.zeros(n, bool)
+        self.fixed_focus = np.full((n, 3), np.nan)  # a fixed camera's focus; NaN: the task camera's, each step
+        self.placed = np.zeros(n, bool)  # the distraction moves the camera (active)
+        self.moving = np.zeros(n, bool)  # ... at every control step (dynamic)
+        self.noise = NoiseBank(n, 4, self.frame_skip)
+
+    def start(self, row: int, distraction: CameraDistraction, physics) -> None:
+        """World ``row``'s episode start: its range about the task's camera, a pose drawn in it from
+        ``distraction``'s generator (with ``distraction``'s settings), the noise of its walk to come."""
+        self.noise.rewind(row)
+        model, data = physics.model, physics.data
+        cid, mode = distraction.camera_id, distraction._mode
+        body = int(model.cam_bodyid[cid])
+        origin = data.subtree_com[body] if mode == _TRACKCOM else data.xpos[body] if mode == _TRACK else np.zeros(3)
+        radius0, azimuth0, elevation0 = cm.cart_to_sphere(*(data.cam_xpos[cid] - origin))
+        turn = cm.frame_turn(azimuth0)
+        azimuth0 -= turn
+        upright = distraction.upper_quadrant
+        if upright is None:
+            upright = elevation0 >= _OVERHEAD_ELEVATION
+        r = cm.pose_range(radius0, azimuth0, elevation0, distraction.scale, distraction.dynamic, upright)
+        self.camera[row], self.mode[row], self.body[row], self.upright[row] = cid, mode, body, upright
+        self.turn[row], self.turn_cos_sin[row] = turn, (math.cos(turn), math.sin(turn))
+        self.limits[row] = r.limits()
+        self.blind[row] = distraction.blind
+        self.placed[row] = distraction.active
+        self.moving[row] = distraction.active and distraction.dynamic
+        if not distraction.active:
+            self.pose[row] = radius0, azimuth0, elevation0, 0.0
+            self.velocity[row], self.roll_velocity[row] = 0.0, 0.0
+            return
+        self.fixed_focus[row] = _task_focus(data, cid) if mode == _FIXED else np.nan
+        rng = distraction._rng
+        pose = cm.sample_pose(rng, r)
+        self.pose[row] = pose.radius, pose.azimuth, pose.elevation, pose.roll
+        self.velocity[row], self.roll_velocity[row] = pose.velocity, pose.roll_velocity
+        # the reference runs one random-walk step right after sampling (also when static): it
+        # canonicalises the spherical coordinates and clips them to the range
+        one, at = np.zeros(1, np.int64), slice(row, row + 1)  # this world's rows, as a batch of one
+        ck.walk(one, np.ones(1, np.int64), rng.standard_normal((1, 4)), one, self.pose[at], self.velocity[at],
+                self.roll_velocity[at], self.limits[at])
+
+    def advance(self, rows: np.ndarray) -> None:
+        """One agent step (each world's frame skip in control steps) of the walk of the worlds ``rows`` that move."""
+        rows = rows[self.moving[rows]]
+        if len(rows):
+            ck.walk(rows, self.frame_skip[rows], self.noise.values, self.noise.take(rows), self.pose, self.velocity,
+                    self.roll_velocity, self.limits)
+
+    def place(self, rows: np.ndarray, offset: int, cam_xpos, cam_xmat, subtree_com, xpos, out_xpos,
+              out_xmat) -> None:
+        """Writes the camera of the worlds ``rows`` whose camera the distraction moves into
+        ``out_xpos[row - offset]`` / ``out_xmat[row - offset]`` (``[.., ncam, 3]`` / ``[.., ncam, 9]``, any
+        float dtype), from the new state's ``cam_xpos`` / ``cam_xmat`` / ``subtree_com`` / ``xpos`` (float64,
+        ``[N, ...]``: row ``row`` is world ``row``'s)."""
+        rows = rows[self.placed[rows]]
+        if len(rows):
+            ck.place(rows, offset, self.camera, self.pose, self.turn_cos_sin, self.mode, self.body,
+                     self.upright, self.blind, self.fixed_focus, cam_xpos, cam_xmat, subtree_com, xpos,
+                     out_xpos, out_xmat)
+
+    def states(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """The exposed state (float32 ``[azimuth in the world frame, elevation, radius, roll]``) of the worlds ``rows`` (all: ``None``)."""
+        rows = np.arange(self.n) if rows is None else rows
+        out = np.empty((len(rows), 4), np.float32)
+        ck.state(self.pose[rows], self.turn[rows], out)
+        return out
+
+
+def _task_focus(data, cid: int) -> np.ndarray:
+    """The point the task's camera looks at: on its view ray, at its distance to the agent."""
+    position = data.cam_xpos[cid]
+    return position - np.linalg.norm(position - data.subtree_com[1]) * data.cam_xmat[cid][2::3]

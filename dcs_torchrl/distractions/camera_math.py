@@ -49,44 +49,29 @@ def look_at_upright(target, position, roll: float = 0.0) -> np.ndarray:
     """Camera rotation (columns = camera axes in world) looking at ``target``, then rolled by ``roll``.
 
     Before the roll the camera's x axis stays horizontal: the camera is yawed about the world
-    z axis and pitched about its own x axis (``rotation_z(-yaw) @ R_x(pitch) @
-    rotation_z(roll)``, written out: this runs at every agent step). Unstable right above or
-    below the target, which the frontal-quadrant limit keeps the camera away from.
+    z axis and pitched about its own x axis (``rotation_z(-yaw) @ R_x(pitch) @ rotation_z(roll)``).
+    Unstable right above or below the target, which the frontal-quadrant limit keeps the camera
+    away from. The compiled :func:`dcs_torchrl.distractions.camera_kernels.look_at`, on one camera.
     """
-    dx, dy, dz = (float(t) - float(p) for t, p in zip(target, position))
-    yaw = math.atan2(dx, dy)
-    pitch = math.atan2(dz, math.hypot(dx, dy)) + HALF_PI  # camera starts looking at -z
-    c, s = math.cos(yaw), -math.sin(yaw)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cr, sr = math.cos(roll), math.sin(roll)
-    # columns of rotation_z(-yaw) @ R_x(pitch) (R_x: the rotation about x): x = (c, s, 0), y = (-s cp, c cp, sp), z = (s sp, -c sp, cp)
-    yx, yy, yz = -s * cp, c * cp, sp
-    return np.array([
-        [c * cr + yx * sr, yx * cr - c * sr, s * sp],
-        [s * cr + yy * sr, yy * cr - s * sr, -c * sp],
-        [yz * sr, yz * cr, cp],
-    ])
+    return _look_at(target, position, roll, True)
 
 
-def look_at_shortest(target: np.ndarray, position: np.ndarray, roll: float = 0.0) -> np.ndarray:
+def look_at_shortest(target, position, roll: float = 0.0) -> np.ndarray:
     """Camera rotation looking at ``target`` by the smallest rotation of a down-looking camera, then rolled.
 
     Used for cameras above the scene (reacher): it stays smooth through the pole, at the
-    price of some roll. Looking straight up turns the camera by π about its x axis.
+    price of some roll. Looking straight up turns the camera by π about its x axis. The compiled
+    :func:`dcs_torchrl.distractions.camera_kernels.look_at`, on one camera.
     """
-    d = np.asarray(target, float) - np.asarray(position, float)
-    d = d / np.linalg.norm(d)
-    down = np.array([0.0, 0.0, -1.0])
-    axis = np.cross(down, d)
-    sin_t = float(np.linalg.norm(axis))
-    cos_t = float(d @ down)
-    if sin_t < 1e-12:
-        turn = np.eye(3) if cos_t > 0 else np.diag([1.0, -1.0, -1.0])
-    else:
-        axis /= sin_t
-        k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-        turn = np.eye(3) + sin_t * k + (1.0 - cos_t) * (k @ k)
-    return turn @ rotation_z(roll)
+    return _look_at(target, position, roll, False)
+
+
+def _look_at(target, position, roll: float, upright: bool) -> np.ndarray:
+    from dcs_torchrl.distractions import camera_kernels as ck
+
+    out = np.empty(9)
+    ck.look_at(np.asarray(target, np.float64), np.asarray(position, np.float64), float(roll), upright, out)
+    return out.reshape(3, 3)
 
 
 @dataclass(frozen=True)
@@ -102,6 +87,11 @@ class PoseRange:
     start_speed: float  # v0 ~ U(0, start_speed) in a random direction (unscaled, as in the reference)
     max_roll_speed: float
     roll_speed_std: float
+
+    def limits(self) -> tuple[float, ...]:
+        """The range as a row of :data:`dcs_torchrl.distractions.camera_kernels.LIMITS`."""
+        return (*self.radius, *self.azimuth, *self.elevation, *self.roll, self.speed_std, self.max_speed,
+                self.roll_speed_std, self.max_roll_speed)
 
 
 def pose_range(
@@ -136,8 +126,7 @@ def pose_range(
 
 
 class Pose(NamedTuple):
-    """Camera pose ``c = (azimuth, elevation, radius, roll)`` plus its velocities (a tuple: one
-    is made per control step)."""
+    """Camera pose ``c = (azimuth, elevation, radius, roll)`` plus its velocities."""
 
     radius: float
     azimuth: float
@@ -145,11 +134,6 @@ class Pose(NamedTuple):
     roll: float
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     roll_velocity: float = 0.0
-
-    def as_array(self, azimuth_offset: float = 0.0) -> np.ndarray:
-        """``[azimuth, elevation, radius, roll]`` with the azimuth in the world frame, in (-π, π]."""
-        az = math.remainder(self.azimuth + azimuth_offset, 2 * math.pi)
-        return np.array([az, self.elevation, self.radius, self.roll], dtype=np.float32)
 
 
 def sample_pose(rng: np.random.Generator, r: PoseRange) -> Pose:
@@ -173,47 +157,23 @@ def walk(pose: Pose, r: PoseRange, noise) -> Pose:
     range in spherical coordinates, and the velocity re-derived from the clipped move
     so it never keeps pushing out of range; likewise for roll.
     """
-    return _walk_rows(pose, r, [[float(x) for x in noise]])
+    return _walk_rows(pose, r, np.asarray(noise, np.float64).reshape(1, 4))
 
 
 def walk_many(pose: Pose, r: PoseRange, rng: np.random.Generator, n_steps: int) -> Pose:
     """``n_steps`` control steps of :func:`walk`, drawing the noise in one call."""
-    return _walk_rows(pose, r, rng.standard_normal((n_steps, 4)).tolist())
+    return _walk_rows(pose, r, rng.standard_normal((n_steps, 4)))
 
 
-def _walk_rows(pose: Pose, r: PoseRange, rows: list) -> Pose:
-    """One :func:`walk` step per row of 4 noise floats. Written out in plain floats, one pose
-    made at the end: this runs at every agent step, right after a render has left the caches
-    cold, where each call and object costs several times what it does warm."""
-    radius, azimuth, elevation, roll = pose.radius, pose.azimuth, pose.elevation, pose.roll
-    vx, vy, vz = pose.velocity
-    roll_velocity = pose.roll_velocity
-    r_lo, r_hi = r.radius
-    az_lo, az_hi = r.azimuth
-    el_lo, el_hi = r.elevation
-    roll_lo, roll_hi = r.roll
-    std, max_speed, roll_std, max_roll = r.speed_std, r.max_speed, r.roll_speed_std, r.max_roll_speed
-    sin, cos, atan2, sqrt = math.sin, math.cos, math.atan2, math.sqrt
-    s = sin(elevation)
-    x, y, z = radius * s * cos(azimuth), radius * s * sin(azimuth), radius * cos(elevation)
-    for n0, n1, n2, n3 in rows:
-        vx += n0 * std
-        vy += n1 * std
-        vz += n2 * std
-        roll_velocity = min(max(roll_velocity + n3 * roll_std, -max_roll), max_roll)
-        speed = sqrt(vx * vx + vy * vy + vz * vz)
-        if speed > max_speed:
-            shrink = max_speed / speed
-            vx, vy, vz = vx * shrink, vy * shrink, vz * shrink
-        px, py, pz = x + vx, y + vy, z + vz
-        radius = min(max(sqrt(px * px + py * py + pz * pz), r_lo), r_hi)
-        azimuth = min(max(atan2(py, px), az_lo), az_hi)
-        elevation = min(max(atan2(math.hypot(px, py), pz), el_lo), el_hi)
-        s = sin(elevation)
-        nx, ny, nz = radius * s * cos(azimuth), radius * s * sin(azimuth), radius * cos(elevation)
-        vx, vy, vz = nx - x, ny - y, nz - z
-        x, y, z = nx, ny, nz
-        new_roll = min(max(roll + roll_velocity, roll_lo), roll_hi)
-        roll_velocity = new_roll - roll
-        roll = new_roll
-    return Pose(radius, azimuth, elevation, roll, (vx, vy, vz), roll_velocity)
+def _walk_rows(pose: Pose, r: PoseRange, rows: np.ndarray) -> Pose:
+    """One :func:`walk` step per row of 4 noise numbers: the compiled walk of the worlds
+    (:func:`dcs_torchrl.distractions.camera_kernels.walk`) on one world."""
+    from dcs_torchrl.distractions import camera_kernels as ck
+
+    state = np.array([[pose.radius, pose.azimuth, pose.elevation, pose.roll]])
+    velocity, roll_velocity = np.array([pose.velocity], np.float64), np.array([pose.roll_velocity])
+    limits = np.array([r.limits()])
+    ck.walk(np.zeros(1, np.int64), np.array([len(rows)]), rows.reshape(1, -1), np.zeros(1, np.int64), state, velocity,
+            roll_velocity, limits)
+    radius, azimuth, elevation, roll = state[0].tolist()
+    return Pose(radius, azimuth, elevation, roll, tuple(velocity[0].tolist()), float(roll_velocity[0]))

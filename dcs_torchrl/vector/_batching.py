@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+import numpy as np
 from tensordict import TensorDictBase
 
 __all__ = ["chain_seeds", "close_once", "marked", "shares"]
@@ -22,13 +23,13 @@ def chain_seeds(set_seeds: Iterable[Callable[[int | None], int | None]], seed: i
     return seed
 
 
-def marked(tensordict: TensorDictBase | None, key: str, n: int) -> list[int]:
-    """The envs a ``"_reset"`` / ``"_step"`` mask of ``tensordict`` marks (any entry of an env's row);
+def marked(tensordict: TensorDictBase | None, key: str, n: int) -> np.ndarray:
+    """The envs a ``"_reset"`` / ``"_step"`` mask of ``tensordict`` marks (any entry of an env's row), int64;
     every env of the ``n`` without one."""
     mask = None if tensordict is None else tensordict.get(key, None)
     if mask is None:
-        return list(range(n))
-    return mask.reshape(n, -1).any(-1).nonzero().flatten().tolist()
+        return np.arange(n)
+    return mask.reshape(n, -1).any(-1).nonzero().flatten().cpu().numpy()
 
 
 def shares(n: int, parts: int) -> list[range]:

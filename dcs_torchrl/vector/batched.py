@@ -6,14 +6,16 @@ GL env's physics, task and distractions without its render: a
 ColorDistraction, BackgroundDistraction))``, seeded as TorchRL's batched envs seed their workers (env
 ``i`` gets the seed env ``i - 1``'s ``set_seed`` returns). A reset goes through that env's own TorchRL
 ``reset`` (the task's ``initialize_episode``). A step of the paper's six tasks
-(:data:`dcs_torchrl.vector.task_arrays.TASKS`) runs every env's physics in MuJoCo's C over threads and the
-task's reward and observation over arrays (:class:`~dcs_torchrl.vector.batch_physics.BatchPhysics`); any other
-task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then each
-distraction's :meth:`~dcs_torchrl.distractions.base.DistractionTransform.step_scene`, the
-transform's own step. So env ``i``'s rewards, resets, terminations and distraction draws are those of
+(:data:`dcs_torchrl.vector.task_arrays.TASKS`) runs every env's physics in one compiled call over MuJoCo's C and
+the task's reward and observation over arrays (:class:`~dcs_torchrl.vector.batch_physics.BatchPhysics`); any other
+task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then the distractions, over
+arrays of all the worlds: each env's transforms keep their state in a row of the batch's ``CameraWorlds``,
+``ColorWorlds`` and ``BackgroundWorlds`` (:meth:`~dcs_torchrl.distractions.base.DistractionTransform.share`),
+which one call each advances. So env ``i``'s rewards, resets, terminations and distraction draws are those of
 env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
-(``tests/test_batched.py``). Then the N worlds' poses, colours and skies go, as whole arrays, to one
-:class:`~dcs_torchrl.render.warp.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
+(``tests/test_batched.py``). Then the N worlds' poses (:class:`~dcs_torchrl.vector.kinematics.Kinematics`), the
+distractions' cameras and colours and the skies (:class:`~dcs_torchrl.render.skies.BatchSkies`) go, as whole arrays,
+to one :class:`~dcs_torchrl.render.warp.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
 
 Partial resets (``"_reset"``) and partial steps (``"_step"``, which TorchRL's ``rollout`` writes) act on
 the envs they name only; the others continue their episodes.
@@ -35,12 +37,17 @@ from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
 from dcs_torchrl._scene import locate
-from dcs_torchrl.distractions import BackgroundDistraction
+from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
+from dcs_torchrl.distractions.background import BackgroundWorlds
 from dcs_torchrl.distractions.base import DistractionTransform
+from dcs_torchrl.distractions.camera import CameraWorlds
+from dcs_torchrl.distractions.color import ColorWorlds
 from dcs_torchrl.render.gl import check_profile
-from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer, skybox_faces
+from dcs_torchrl.render.skies import BatchSkies
+from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer
 from dcs_torchrl.vector._batching import chain_seeds, close_once, marked, shares
 from dcs_torchrl.vector.batch_physics import BatchPhysics
+from dcs_torchrl.vector.kinematics import Kinematics
 from dcs_torchrl.vector.task_arrays import task_arrays
 
 __all__ = ["BatchedSuiteEnv", "WARP_PROFILES", "compact_skies", "scene_labels"]
@@ -102,57 +109,6 @@ def compact_skies(settings) -> Iterator[None]:
         common.ASSETS[_SKYBOX_ASSET] = original
 
 
-class _SkySink:
-    """Takes a world's new sky where :class:`~dcs_torchrl.RenderPixels` would upload it (the
-    background distraction's ``upload_textures(context)``), writes it into that world's row of
-    ``scene`` and raises the scene's ``sky_version`` (a CUDA renderer then uploads the rows again)."""
-
-    def __init__(self, scene, row: int):
-        self.scene, self.rows = scene, scene.sky[row]  # [faces, side, side, 3] of this world
-
-    def upload_cube(self, tex_id: int, faces: list[np.ndarray]) -> None:
-        self.scene.sky_version += 1
-        if len(faces) == 1:  # one face on all six, in a batch whose other worlds show six: the same pixels
-            self.rows[...] = faces[0]
-            return
-        if len(faces) != len(self.rows):
-            raise RuntimeError(f"expected {len(self.rows)} sky face(s), got {len(faces)}")
-        for row, face in zip(self.rows, faces):
-            row[...] = face
-
-
-class _FrameTable:
-    """The video frames a batch's worlds show, each clip once, as rows of one array: a world whose sky is
-    a frame alone (:meth:`~dcs_torchrl.BackgroundDistraction.shown_frame`) shows a row of it, so that a
-    step copies each world's row number instead of its frame (and a CUDA renderer uploads each clip
-    once). Clips are added as worlds first show them; the array grows by doubling into a new one, so a
-    render still reading the former sees the rows it indexes unchanged."""
-
-    def __init__(self, side: int):
-        self.rows = np.zeros((1, 1, side, side, 3), np.uint8)  # one blank row: a sky to index before any clip
-        self.used = 1
-        self.version = 0  #: raised whenever rows are added (a renderer that copies them copies again)
-        self._offsets: dict[int, tuple[int, np.ndarray]] = {}  # id(clip) -> (first row, the clip, kept alive)
-
-    def row(self, clip: np.ndarray, frame: int) -> int:
-        """The row of frame ``frame`` of ``clip`` (uint8 ``[T, side, side, 3]``, added on first sight)."""
-        entry = self._offsets.get(id(clip))  # the clip is kept: its id is not another's
-        if entry is None:
-            entry = self._offsets[id(clip)] = (self._add(clip), clip)
-        return entry[0] + frame
-
-    def _add(self, clip: np.ndarray) -> int:
-        start, end = self.used, self.used + len(clip)
-        if end > len(self.rows):
-            grown = np.zeros((max(end, 2 * len(self.rows)), *self.rows.shape[1:]), np.uint8)
-            grown[:start] = self.rows[:start]
-            self.rows = grown
-        self.rows[start:end, 0] = clip
-        self.used = end
-        self.version += 1
-        return start
-
-
 class _World:
     """One env of the batch: its TorchRL env (physics, task, distractions) and the arrays it fills."""
 
@@ -164,13 +120,11 @@ class _World:
         self.distractions = [t for t in env.transform if isinstance(t, DistractionTransform)]
         self.exposed = [t for t in self.distractions if t.expose]
         self.background = next((t for t in self.distractions if isinstance(t, BackgroundDistraction)), None)
-        if self.background is not None:  # the batch's renderer takes each sky from upload_textures alone
-            self.background.writes_model = False
         self.physics = locate(self.distractions[0], strict=True).physics if self.distractions else self.dm.physics
 
     def step(self, action: np.ndarray) -> TensorDictBase:
         """The TorchRL env's own step of its base env (``DMControlEnv``: the frame skip, stopping at the
-        episode's end), without the distractions (the batch steps them after). Returns its ``"next"``."""
+        episode's end), without the distractions (the batch steps them, over all the worlds). Returns its ``"next"``."""
         return self.base.step(TensorDict({"action": torch.from_numpy(action)}, []))["next"]
 
 
@@ -205,7 +159,8 @@ class BatchedSuiteEnv(EnvBase):
             1) are read from: a table holding each clip once, each world a row number (``True``: a
             step copies no frame, a CUDA device receives each clip once), or each world's own row,
             its frame copied in at each step (``False``: no second copy of the clips in memory).
-            ``None``: the table on a CUDA device, the rows on the CPU. The pixels are the same.
+            ``None``: the table on a CUDA device and from :data:`~dcs_torchrl.render.skies.TABLE_FROM` envs,
+            else the rows. The pixels are the same.
     """
 
     def __init__(self, envs: Sequence[TransformedEnv], *, height: int = 84, width: int = 84, camera_id: int = 0,
@@ -213,8 +168,6 @@ class BatchedSuiteEnv(EnvBase):
                  render_chunks: int | None = None, groups: Sequence[int] | None = None,
                  physics_threads: int | None = None, sky_table: bool | None = None):
         check_profile(render_profile)
-        if sky_table is not None and not isinstance(sky_table, bool):
-            raise ValueError(f"sky_table must be True, False or None (the table on CUDA, rows on the CPU), got {sky_table!r}.")
         envs = list(envs)
         if not envs:
             raise ValueError("BatchedSuiteEnv needs at least one env (num_envs >= 1).")
@@ -226,13 +179,21 @@ class BatchedSuiteEnv(EnvBase):
         super().__init__(batch_size=[len(envs)], device=device)
         self.num_envs = n = len(envs)
         self._worlds = [_World(env) for env in envs]
-        videos = self._video_skies()
         first = self._worlds[0]
         self._state_keys = list(first.base.observation_spec.keys(True, True))
-        self._distraction_keys = [t.out_keys[0] for t in first.distractions if t.expose]
         self.pixels_only, self.masks = bool(pixels_only), bool(masks)
         self._set_specs(first.env, height, width)
         model = first.physics.model
+        # the distractions' state over the worlds: each world's transforms keep theirs in a row of these
+        frame_skip = np.array([w.frame_skip for w in self._worlds], np.int64)
+        self._camera, self._color = CameraWorlds(n, frame_skip), ColorWorlds(n, model.nmat, frame_skip)
+        self._background = BackgroundWorlds(n, frame_skip)
+        arrays = {CameraDistraction: self._camera, ColorDistraction: self._color,
+                  BackgroundDistraction: self._background}
+        for i, world in enumerate(self._worlds):
+            for t in world.distractions:
+                t.share(arrays[type(t)], i)
+        self._exposed = {t.out_keys[0]: arrays[type(t)] for t in first.distractions if t.expose}
         agent, floor = scene_labels(model)
         # the batch is rendered in chunks, each by its own renderer, in a thread of its own while
         # this thread steps the next chunk's physics (Warp's launches release the GIL)
@@ -240,21 +201,11 @@ class BatchedSuiteEnv(EnvBase):
         self.renderers = [WarpRenderer(model, len(chunk), height, width, camera_id, device,
                                        agent_geoms=agent if masks else None, floor_geoms=floor,
                                        **WARP_PROFILES[render_profile]) for chunk in self._chunks]
-        # the skies: a table of the video frames shown (a frame alone), each world's own row (a frame
-        # blended onto the model's sky, written by its distraction), or the model's sky shared by all
-        if sky_table is None:
-            sky_table = device.type == "cuda"
-        self._table = _FrameTable(videos[1]) if sky_table and videos is not None and videos[0] == 1 else None
-        if self._table is not None:
-            skies = [self._table.rows for _ in self._chunks]
-        elif videos is not None:
-            skies = [np.zeros((len(chunk), *videos), np.uint8) for chunk in self._chunks]
-        else:
-            skies = [self._clean_sky(model, height, camera_id)[None]] * len(self._chunks)
-        self._scenes = [renderer.state(sky) for renderer, sky in zip(self.renderers, skies)]
-        self._where = [(c, i) for c, chunk in enumerate(self._chunks) for i in range(len(chunk))]
-        rows = videos is not None and self._table is None
-        self._sinks = [_SkySink(self._scenes[c], i) for c, i in self._where] if rows else None
+        self.skies = BatchSkies(model, [w.background for w in self._worlds], self._background.frame,
+                                self._background.changed, self._chunks, height, camera_id, sky_table,
+                                device.type == "cuda")
+        self._scenes = [renderer.state(self.skies.array(c)) for c, renderer in enumerate(self.renderers)]
+        self._kinematics = Kinematics([w.physics.data.ptr for w in self._worlds])
         self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
         self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
         self._pool = ThreadPoolExecutor(RENDER_THREADS, thread_name_prefix="warp-render") if len(self._chunks) > 1 else None
@@ -263,10 +214,10 @@ class BatchedSuiteEnv(EnvBase):
         self._reward = np.zeros((n, 1), np.float64)
         self._done = np.zeros((n, 3), bool)  # terminated, truncated, done
         self._states = {key: np.zeros(spec.shape, torch.empty((), dtype=spec.dtype).numpy().dtype)
-                        for key, spec in self.observation_spec.items(True, True) if key in self._distraction_keys}
+                        for key, spec in self.observation_spec.items(True, True) if key in self._exposed}
         self.physics = self._batch_physics(physics_threads)
         #: seconds spent stepping: ``"physics"`` (the envs' physics and task), ``"scene"`` (the
-        #: distractions' step and the copy of each world's scene for the render), for the benchmarks
+        #: distractions' step and the worlds' scenes into the render's arrays), for the benchmarks
         self.seconds = {"physics": 0.0, "scene": 0.0}
         self.is_closed = False
 
@@ -297,59 +248,27 @@ class BatchedSuiteEnv(EnvBase):
         self.reward_spec = env.reward_spec.expand(n, *env.reward_spec.shape).to(device)
         self.done_spec = env.full_done_spec.expand(n).to(device)
 
-    def _video_skies(self) -> tuple[int, int, int, int] | None:
-        """``(faces, side, side, 3)`` of every world's sky where the worlds show videos (six faces where
-        any blends them onto the model's sky, else the one face of a frame), ``None`` where none does."""
-        backgrounds = [world.background for world in self._worlds]
-        shows = [b is not None and b.active for b in backgrounds]
-        if not any(shows):
-            return None
-        if not all(shows):
-            raise ValueError("the envs of one batch must all show background videos or none of them: build "
-                             "the settings with videos and those without in separate batches.")
-        sides = sorted({b.texture_size for b in backgrounds})
-        if len(sides) > 1:
-            raise ValueError(f"the envs of one batch show videos at texture_size {sides}: give them one "
-                             "texture_size, or build them in separate batches.")
-        for b in backgrounds:
-            b._bind()
-        faces = 1 if all(b._sky_faces is None for b in backgrounds) else 6
-        return faces, sides[0], sides[0], 3
-
-    @staticmethod
-    def _clean_sky(model, height: int, camera_id: int) -> np.ndarray:
-        """The model's skybox, averaged down to about one texel per pixel of this camera (GL samples it
-        through mipmaps; Warp's renderer has none)."""
-        import cv2
-
-        faces = skybox_faces(model)
-        side = faces.shape[1]
-        fovy = float(model.cam_fovy[camera_id])
-        footprint = int(np.ceil(height / np.tan(np.radians(fovy) / 2)))  # pixels a face spans
-        if footprint >= side:
-            return faces
-        return np.stack([cv2.resize(f, (footprint, footprint), interpolation=cv2.INTER_AREA) for f in faces])
-
     # --------------------------------------------------------------- gathering
-    def _gather(self, index: int) -> None:
-        """World ``index``'s scene into its chunk's arrays."""
-        world = self._worlds[index]
-        chunk, row = self._where[index]
-        scene = self._scenes[chunk]
-        data, model = world.physics.data, world.physics.model
-        scene.geom_xpos[row] = data.geom_xpos
-        scene.geom_xmat[row] = data.geom_xmat
-        scene.cam_xpos[row] = data.cam_xpos
-        scene.cam_xmat[row] = data.cam_xmat
-        scene.light_xpos[row] = data.light_xpos
-        scene.light_xdir[row] = data.light_xdir
-        scene.mat_rgba[row] = model.mat_rgba
-        if self._table is not None:
-            scene.sky_index[row] = self._table.row(*world.background.shown_frame())
-            if scene.sky is not self._table.rows or scene.sky_version != self._table.version:
-                scene.sky, scene.sky_version = self._table.rows, self._table.version
-        elif self._sinks is not None:
-            world.background.upload_textures(self._sinks[index])
+    def _place(self, chunk: int, rows: np.ndarray, started: bool = False) -> None:
+        """The scene of the worlds ``rows`` (int64, all in part ``chunk``) into that part's arrays, as whole
+        arrays: their new state's poses (gathered from their ``MjData``), their distractions' camera,
+        colours and sky, and their exposed distraction states. ``started``: their episodes began."""
+        if not len(rows):
+            return
+        scene, offset, kinematics = self._scenes[chunk], self._chunks[chunk].start, self._kinematics.fields
+        self._kinematics.gather(rows)
+        local = rows - offset
+        for field in ("geom_xpos", "geom_xmat", "cam_xpos", "cam_xmat", "light_xpos", "light_xdir"):
+            getattr(scene, field)[local] = kinematics[field][rows]
+        if started:  # a world's materials as its episode starts them (the floor's alpha); the colours below
+            scene.mat_rgba[local] = np.stack([self._worlds[i].physics.model.mat_rgba for i in rows.tolist()])
+            self.skies.started(rows.tolist())
+        self._camera.place(rows, offset, kinematics["cam_xpos"], kinematics["cam_xmat"], kinematics["subtree_com"],
+                           kinematics["xpos"], scene.cam_xpos, scene.cam_xmat)
+        self._color.place(rows, offset, scene.mat_rgba)
+        self.skies.update(chunk, scene, rows)
+        for key, worlds in self._exposed.items():
+            self._states[key][rows] = worlds.states(rows)
 
     def _render_chunk(self, chunk: int) -> None:
         """Renders chunk ``chunk`` into this env's pixel (and label) buffers: now, or in the render
@@ -368,21 +287,21 @@ class BatchedSuiteEnv(EnvBase):
             self._pending.append(self._pool.submit(render))
 
     def _each_chunk(self, indices, act) -> None:
-        """``act(worlds)`` for the worlds ``indices`` of each chunk in turn (a list of indices, maybe
-        empty), each chunk rendered once its worlds are done (every chunk is rendered, so that every
-        env's frame is its current scene), while the next chunk's worlds are acted on."""
+        """``act(worlds)`` for the worlds ``indices`` of each chunk in turn (int64, maybe empty), each chunk
+        rendered once its worlds are done (every chunk is rendered, so that every env's frame is its
+        current scene), while the next chunk's worlds are acted on."""
         todo = np.zeros(self.num_envs, bool)
-        todo[list(indices)] = True
+        todo[indices] = True
         for chunk, span in enumerate(self._chunks):
-            act([i for i in span if todo[i]])
+            act(span.start + np.flatnonzero(todo[span.start:span.stop]))
             self._render_chunk(chunk)
         pending, self._pending = self._pending, []
         for future in pending:
             future.result()
 
-    def _read_states(self, index: int) -> None:
-        for key, t in zip(self._distraction_keys, self._worlds[index].exposed):
-            self._states[key][index] = t.state()
+    def _chunk_of(self, worlds: np.ndarray) -> int:
+        """The chunk the worlds (all in one chunk) are in."""
+        return int(np.searchsorted([span.stop for span in self._chunks], worlds[0], side="right")) if len(worlds) else 0
 
     def _output(self, with_reward: bool) -> TensorDictBase:
         out = {"pixels": self._pixels.clone()}
@@ -405,16 +324,17 @@ class BatchedSuiteEnv(EnvBase):
         indices = marked(tensordict, "_step", self.num_envs)
         self._reward[:] = 0.0
 
-        def step(worlds: list[int]) -> None:
+        def step(worlds: np.ndarray) -> None:
             start = time.perf_counter()
-            fast = [] if self.physics is None else [i for i in worlds if not self.physics.over(i)]
-            if fast:  # MuJoCo's C over threads, the task over arrays, then each world's distractions
+            over = np.ones(len(worlds), bool) if self.physics is None else self.physics.ended[worlds]
+            fast, slow = worlds[~over], worlds[over]  # slow: other tasks, and episodes over (dm_control's step resets them)
+            if len(fast):  # MuJoCo's C in one call, the task over arrays
                 reward, truncated, observation = self.physics.step(fast, actions[fast], observe=not self.pixels_only)
                 self._reward[fast, 0] = reward
                 self._done[fast] = np.stack([np.zeros_like(truncated), truncated, truncated], axis=-1)
                 for key in self._state_keys if observation is not None else ():
                     self._obs[key][fast] = observation[key].reshape(self._obs[key][fast].shape)
-            for i in worlds if self.physics is None else sorted(set(worlds) - set(fast)):
+            for i in slow.tolist():
                 out = self._worlds[i].step(actions[i])  # dm_control's step, through TorchRL's DMControlEnv
                 if self.physics is not None:  # an episode over: dm_control's step reset it (the task drew anew)
                     self.physics.after_reset(i)
@@ -423,11 +343,9 @@ class BatchedSuiteEnv(EnvBase):
                 for key in self._state_keys:
                     self._obs[key][i] = out[key].numpy()
             physics = time.perf_counter()
-            for i in worlds:
-                for t in self._worlds[i].distractions:
-                    t.step_scene()
-                self._read_states(i)
-                self._gather(i)
+            for worlds_of in (self._camera, self._color, self._background):  # the distractions over arrays
+                worlds_of.advance(worlds)
+            self._place(self._chunk_of(worlds), worlds)
             self.seconds["physics"] += physics - start
             self.seconds["scene"] += time.perf_counter() - physics
 
@@ -438,16 +356,15 @@ class BatchedSuiteEnv(EnvBase):
         self._check_open()
         indices = marked(tensordict, "_reset", self.num_envs)
 
-        def reset(worlds: list[int]) -> None:
-            for i in worlds:
-                observation = self._worlds[i].env.reset()  # the env's own reset: physics, task, distractions
+        def reset(worlds: np.ndarray) -> None:
+            for i in worlds.tolist():  # a world's own reset (physics, task, distractions' draws): an episode start
+                observation = self._worlds[i].env.reset()
                 if self.physics is not None:
                     self.physics.after_reset(i)
                 self._done[i] = False
                 for key in self._state_keys:
                     self._obs[key][i] = observation.get(key).numpy()
-                self._read_states(i)
-                self._gather(i)
+            self._place(self._chunk_of(worlds), worlds, started=True)
 
         self._each_chunk(indices, reset)
         return self._output(with_reward=False)

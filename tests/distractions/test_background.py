@@ -113,7 +113,7 @@ def test_episode_start_is_uniform_over_the_first_b_videos_frames_and_directions(
         red, green, _ = sky(td["pixels"]).tolist()
         assert (red, green) == pytest.approx((10 * frame, 20 + 25 * video), abs=1.5)
         starts.append((video, frame))
-        directions.append(env.transform[0]._direction)
+        directions.append(int(env.transform[0]._worlds.direction[0]))
     starts = np.array(starts)
     assert set(starts[:, 0].tolist()) == {0, 1, 2, 3}  # the first b = 4 videos of the list, all of them
     assert stats.chisquare(np.bincount(starts[:, 0], minlength=4)).pvalue > 0.001

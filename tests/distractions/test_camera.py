@@ -111,7 +111,7 @@ def test_fixed_camera_orbits_the_world_origin_and_tracking_camera_the_agent():
     fixed.rollout(30, break_when_any_done=False)
     physics = physics_of(fixed)
     assert np.linalg.norm(physics.data.cam_xpos[0]) == pytest.approx(
-        fixed.transform[0]._pose.radius, rel=1e-6
+        float(fixed.transform[0].state()[2]), rel=1e-6
     )
     tracking = camera_env("cheetah", "run", 0.3, dynamic=False)
     td = tracking.reset()

@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 
 from dcs_torchrl._scene import Scene, originals
-from dcs_torchrl.distractions.base import DistractionTransform, check_scale
+from dcs_torchrl.distractions.base import DistractionTransform, check_scale, per_world
 from dcs_torchrl.render.skybox import cube_faces, skybox_texture
 from dcs_torchrl.videos import ArraySource, VideoSource, open_source
 
@@ -117,7 +117,6 @@ class BackgroundDistraction(DistractionTransform):
 
     state_name = "background"
     seed_tag = 3
-    step_attributes = frozenset({"_pending"})
 
     def __init__(
         self,
@@ -264,7 +263,7 @@ class BackgroundWorlds:
 
     def __init__(self, n: int, frame_skip):
         self.n = n
-        self.frame_skip = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)).copy()
+        self.frame_skip = per_world(frame_skip, n)
         self.video = np.full(n, -1, np.int64)
         self.frame = np.full(n, -1, np.int64)
         self.direction = np.ones(n, np.int64)

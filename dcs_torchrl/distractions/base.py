@@ -35,6 +35,11 @@ def check_scale(name: str, value: float) -> float:
     return value
 
 
+def per_world(value, n: int) -> np.ndarray:
+    """``value`` (one int for all, or one a world) as int64 ``[n]``: a ``Worlds`` class's frame skips."""
+    return np.broadcast_to(np.asarray(value, np.int64), (n,)).copy()
+
+
 def generator(seed: int | None, tag: int) -> np.random.Generator:
     """The generator of distraction type ``tag`` for ``seed`` (fresh entropy if ``None``)."""
     if seed is not None:
@@ -92,28 +97,24 @@ class DistractionTransform(Transform):
 
     state_name: ClassVar[str]
     seed_tag: ClassVar[int]
-    #: The attributes a step rewrites, plain Python or NumPy values (never a tensor, parameter or
-    #: module): set straight into the instance's ``__dict__``, past ``nn.Module.__setattr__``'s
-    #: bookkeeping.
-    step_attributes: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, seed: int | None = None, expose: bool = False):
         self.expose = bool(expose)
         super().__init__(in_keys=[], out_keys=[("distractions", self.state_name)] if expose else [])
-        self.__dict__.update(_scene=None, _worlds=None, row=0, _rows=np.zeros(1, np.int64), _owner=False)
+        self.__dict__["_scene"] = None
+        self._hold(None, 0, owner=False)
         self.reseed(seed)
 
-    def __setattr__(self, name: str, value) -> None:
-        if name in self.step_attributes:
-            self.__dict__[name] = value
-        else:
-            super().__setattr__(name, value)
+    def _hold(self, worlds, row: int, owner: bool) -> None:
+        """Keeps this distraction's state in row ``row`` of ``worlds`` (``None``: none yet); ``owner``: the
+        arrays are this transform's own (one env), which its step advances and places."""
+        self.__dict__.update(_worlds=worlds, row=row, _rows=np.array([row], np.int64), _owner=owner)
 
     # ----------------------------------------------------------------- wiring
     def reseed(self, seed: int | None) -> None:
         """Restarts this distraction's random stream from ``seed``; takes effect at the next reset."""
         self._rng = generator(seed, self.seed_tag)
-        worlds = self.__dict__.get("_worlds")
+        worlds = self._worlds
         if worlds is not None and hasattr(worlds, "noise"):
             worlds.noise.use(self.row, self._rng)
 
@@ -122,7 +123,7 @@ class DistractionTransform(Transform):
         distraction's ``Worlds`` class), whose owner then advances and places every world at once: this
         transform's own step and scene edit then leave the scene to it; its episode starts still draw
         the row from its own generator."""
-        self.__dict__.update(_worlds=worlds, row=row, _rows=np.array([row]), _owner=False)
+        self._hold(worlds, row, owner=False)
         if hasattr(worlds, "noise"):
             worlds.noise.use(row, self._rng)
 
@@ -130,18 +131,18 @@ class DistractionTransform(Transform):
         """TorchRL's shallow copy (for a ``parent`` view or a new env), without this distraction's state: a
         clone that shared its arrays would redirect their noise to its own generator when reseeded."""
         copy = super().clone()
-        copy.__dict__.update(_worlds=None, row=0, _rows=np.zeros(1, np.int64), _owner=False)
+        copy._hold(None, 0, owner=False)
         return copy
 
     @property
     def worlds(self):
         """The arrays this distraction's state lives in (row :attr:`row`); ``None`` before its first reset."""
-        return self.__dict__.get("_worlds")
+        return self._worlds
 
     def _own_worlds(self, scene: Scene) -> None:
-        if self.__dict__.get("_worlds") is None:
+        if self._worlds is None:
             self.share(self._new_worlds(scene), 0)
-            self.__dict__["_owner"] = True
+            self._owner = True
 
     def set_container(self, container) -> None:
         super().set_container(container)
@@ -185,7 +186,7 @@ class DistractionTransform(Transform):
         return self._write_state(tensordict_reset)
 
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
-        if self.__dict__.get("_owner"):  # an agent step: frame_skip control steps of the walk, the scene edited
+        if self._owner:  # an agent step: frame_skip control steps of the walk, the scene edited
             self._worlds.advance(self._rows)
             self._edit_scene(self._bind().physics)
         return self._write_state(next_tensordict)
@@ -230,5 +231,5 @@ class DistractionTransform(Transform):
         raise NotImplementedError
 
     def _state_like(self, scene: Scene) -> np.ndarray:
-        """An array with the shape and dtype of ``_state()``, available before any reset."""
+        """An array with the shape and dtype of :meth:`state`, available before any reset."""
         raise NotImplementedError

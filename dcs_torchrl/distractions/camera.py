@@ -9,7 +9,7 @@ from dcs_torchrl import presets
 from dcs_torchrl._scene import Scene
 from dcs_torchrl.distractions import camera_kernels as ck
 from dcs_torchrl.distractions import camera_math as cm
-from dcs_torchrl.distractions.base import DistractionTransform, check_scale
+from dcs_torchrl.distractions.base import DistractionTransform, check_scale, per_world
 from dcs_torchrl.distractions.noise import NoiseBank
 
 _FIXED, _TRACK, _TRACKCOM = ck.FIXED, ck.TRACK, ck.TRACKCOM
@@ -137,7 +137,7 @@ class CameraWorlds:
 
     def __init__(self, n: int, frame_skip):
         self.n = n
-        self.frame_skip = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)).copy()
+        self.frame_skip = per_world(frame_skip, n)
         self.pose = np.zeros((n, 4))  # radius, azimuth, elevation, roll (the turned frame)
         self.velocity = np.zeros((n, 3))
         self.roll_velocity = np.zeros(n)
@@ -179,7 +179,9 @@ class CameraWorlds:
             self.pose[row] = radius0, azimuth0, elevation0, 0.0
             self.velocity[row], self.roll_velocity[row] = 0.0, 0.0
             return
-        self.fixed_focus[row] = _task_focus(data, cid) if mode == _FIXED else np.nan
+        self.fixed_focus[row] = np.nan
+        if mode == _FIXED:  # the task's camera's focus, kept for the episode
+            ck.task_focus(data.cam_xpos[cid], data.cam_xmat[cid], data.subtree_com[1], self.fixed_focus[row])
         rng = distraction._rng
         pose = cm.sample_pose(rng, r)
         self.pose[row] = pose.radius, pose.azimuth, pose.elevation, pose.roll
@@ -216,8 +218,3 @@ class CameraWorlds:
         ck.state(self.pose[rows], self.turn[rows], out)
         return out
 
-
-def _task_focus(data, cid: int) -> np.ndarray:
-    """The point the task's camera looks at: on its view ray, at its distance to the agent."""
-    position = data.cam_xpos[cid]
-    return position - np.linalg.norm(position - data.subtree_com[1]) * data.cam_xmat[cid][2::3]

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["LIMITS", "look_at", "place", "state", "walk"]
+__all__ = ["LIMITS", "look_at", "place", "state", "task_focus", "walk"]
 
 #: The columns of ``limits``.
 LIMITS = ("radius_low", "radius_high", "azimuth_low", "azimuth_high", "elevation_low", "elevation_high",
@@ -111,6 +111,16 @@ def look_at(target, position, roll, upright, out):  # pragma: no cover - compile
 
 
 @njit(cache=True, nogil=True)
+def task_focus(position, xmat, com, out):  # pragma: no cover - compiled
+    """The point a camera at ``position`` (rotation ``xmat``, row-major: its view axis -(xmat[2], xmat[5],
+    xmat[8])) looks at: on its view ray, at its distance to ``com`` (the agent's centre of mass), into ``out[3]``."""
+    ex, ey, ez = position[0] - com[0], position[1] - com[1], position[2] - com[2]
+    distance = math.sqrt(ex * ex + ey * ey + ez * ez)
+    for a in range(3):
+        out[a] = position[a] - distance * xmat[2 + 3 * a]
+
+
+@njit(cache=True, nogil=True)
 def place(rows, offset, camera, pose, turn, mode, body, upright, blind, fixed_focus, cam_xpos, cam_xmat,
           subtree_com, xpos, out_xpos, out_xmat):  # pragma: no cover - compiled
     """Writes the camera of each world ``rows[j]`` at its pose: ``out_xpos[rows[j] - offset, camera[i]]``
@@ -138,12 +148,7 @@ def place(rows, offset, camera, pose, turn, mode, body, upright, blind, fixed_fo
         if not math.isnan(fixed_focus[i, 0]):
             target[0], target[1], target[2] = fixed_focus[i, 0], fixed_focus[i, 1], fixed_focus[i, 2]
         else:
-            px, py, pz = cam_xpos[i, cid, 0], cam_xpos[i, cid, 1], cam_xpos[i, cid, 2]
-            ex, ey, ez = px - subtree_com[i, 1, 0], py - subtree_com[i, 1, 1], pz - subtree_com[i, 1, 2]
-            distance = math.sqrt(ex * ex + ey * ey + ez * ez)
-            target[0] = px - distance * cam_xmat[i, cid, 2]
-            target[1] = py - distance * cam_xmat[i, cid, 5]
-            target[2] = pz - distance * cam_xmat[i, cid, 8]
+            task_focus(cam_xpos[i, cid], cam_xmat[i, cid], subtree_com[i, 1], target)
         if blind[i]:  # look the other way
             for a in range(3):
                 target[a] = 2.0 * position[a] - target[a]

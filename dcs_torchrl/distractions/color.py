@@ -5,7 +5,7 @@ import numpy as np
 from numba import njit
 
 from dcs_torchrl._scene import Scene, originals
-from dcs_torchrl.distractions.base import DistractionTransform, check_scale
+from dcs_torchrl.distractions.base import DistractionTransform, check_scale, per_world
 from dcs_torchrl.distractions.noise import NoiseBank
 
 _WALK_STD = 0.03  # σ of the dynamic random walk per step, times β (the paper's Sec. 3.2)
@@ -67,14 +67,14 @@ class ColorDistraction(DistractionTransform):
 
 @njit(cache=True, nogil=True)
 def _walk(rows, steps, noise, start, std, low, high, rgb):  # pragma: no cover - compiled
-    """``steps[i]`` control steps of world ``i = rows[j]``'s colour walk: each channel ``c`` (of ``rgb[i]``,
+    """``steps[j]`` control steps of world ``i = rows[j]``'s colour walk: each channel ``c`` (of ``rgb[i]``,
     the materials' channels flat) moved by ``noise[i, start[j] + t C + c] * std[i]`` at step ``t`` and clipped to
     ``[low, high]``."""
     channels = rgb.shape[1]
     for j in range(rows.shape[0]):
         i = rows[j]
         low_i, high_i = low[i].ravel(), high[i].ravel()
-        for t in range(steps[i]):
+        for t in range(steps[j]):
             at = start[j] + t * channels
             for c in range(channels):
                 x = rgb[i, c] + noise[i, at + c] * std[i]
@@ -95,7 +95,7 @@ class ColorWorlds:
 
     def __init__(self, n: int, materials: int, frame_skip):
         self.n = n
-        self.frame_skip = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)).copy()
+        self.frame_skip = per_world(frame_skip, n)
         self.rgb = np.zeros((n, materials, 3))
         self.low = np.zeros((n, materials, 3))
         self.high = np.zeros((n, materials, 3))
@@ -120,7 +120,7 @@ class ColorWorlds:
         N(0, σ) a channel and control step, clipped to the bounds."""
         rows = rows[self.moving[rows]]
         if len(rows):
-            _walk(rows, self.frame_skip, self.noise.values, self.noise.take(rows), self.std, self.low, self.high,
+            _walk(rows, self.frame_skip[rows], self.noise.values, self.noise.take(rows), self.std, self.low, self.high,
                   self.rgb.reshape(self.n, -1))
 
     def states(self, rows: np.ndarray | None = None) -> np.ndarray:

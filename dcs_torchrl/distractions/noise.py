@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dcs_torchrl.distractions.base import per_world
+
 __all__ = ["BLOCK_STEPS", "NoiseBank"]
 
 #: Control steps of noise a world draws at once (rounded down to whole agent steps, at least one).
@@ -29,7 +31,7 @@ class NoiseBank:
 
     def __init__(self, n: int, width: int, frame_skip):
         self.width = int(width)
-        self.per_step = np.broadcast_to(np.asarray(frame_skip, np.int64), (n,)) * self.width  # numbers an agent step takes
+        self.per_step = per_world(frame_skip, n) * self.width  # numbers an agent step takes
         self.block = np.maximum(1, BLOCK_STEPS // (self.per_step // self.width)) * self.per_step  # numbers a block holds
         self.values = np.zeros((n, int(self.block.max())), np.float64)
         self.used = np.zeros(n, np.int64)  # numbers of the current block taken

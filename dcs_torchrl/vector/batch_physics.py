@@ -28,8 +28,10 @@ import mujoco
 import numpy as np
 from dm_control.rl.control import PhysicsError
 
+from dcs_torchrl._compat.pointers import address
 from dcs_torchrl._compat.private_api import episode_clock, set_episode_clock, struct_addresses, sub_steps
 from dcs_torchrl.vector._batching import shares
+from dcs_torchrl.vector.kinematics import Fields
 from dcs_torchrl.vector.task_arrays import Ids, TaskArrays
 
 __all__ = ["BatchPhysics", "physics_threads", "threads_among"]
@@ -63,8 +65,7 @@ class BatchPhysics:
 
     def __init__(self, dm_envs: Sequence, arrays: TaskArrays, frame_skip: int | Sequence[int],
                  threads: int | None = None):
-        from dcs_torchrl.vector import _mjstep  # numba (its ImportError names the extra), compiled once, cached on disk
-        from dcs_torchrl._compat.pointers import address
+        from dcs_torchrl.vector import _mjstep  # compiled at the first batch, cached on disk after
 
         self._step_worlds = _mjstep.step_worlds
         self.envs = list(dm_envs)
@@ -83,21 +84,16 @@ class BatchPhysics:
         models, datas = [env.physics.model.ptr for env in self.envs], [env.physics.data.ptr for env in self.envs]
         self._structs = np.array([struct_addresses(m, d) for m, d in zip(models, datas)], np.int64).reshape(n, 2)
         self._controls = np.array([address(d.ctrl, np.float64) for d in datas], np.int64)
-        self._sources = np.array([[address(getattr(d, f), np.float64) for f in arrays.fields] for d in datas],
-                                 np.int64).reshape(n, len(arrays.fields))
+        fields = Fields(datas, arrays.fields)  # the recorded fields side by side, a row a control step and env
+        self._sources, self._offsets = fields.addresses, fields.offsets
         counts = datas[0].warning.number  # int32, one per mjtWarning, strided in mjWarningStat
         self._warnings = np.array([[d.warning.number.__array_interface__["data"][0], len(counts),
                                     counts.strides[0] // counts.itemsize] for d in datas], np.int64).reshape(n, 3)
         self._sub_steps = np.array([sub_steps(env) for env in self.envs], np.int64)
         self._rk4 = np.array([m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 for m in models], np.bool_)
         self._datas = datas  # kept alive with the addresses above
-        # the recorded fields side by side in one array [frame_skip, N, all fields]; record[f] views each
-        shapes = [np.shape(getattr(datas[0], f)) for f in arrays.fields]
-        self._offsets = np.cumsum([0] + [math.prod(shape) for shape in shapes], dtype=np.int64)
-        self._record = np.zeros((self.frame_skip, n, int(self._offsets[-1])), np.float64)
-        self.record = {f: self._record[:, :, a:b].reshape(self.frame_skip, n, *shape)
-                       for f, a, b, shape in zip(arrays.fields, self._offsets, self._offsets[1:], shapes)}
-        assert all(np.shares_memory(view, self._record) for view in self.record.values())
+        self._record = np.zeros((self.frame_skip, n, fields.width), np.float64)  # [frame_skip, N, all fields]
+        self.record = fields.views(self._record)
         self.model = {f: np.zeros((n, *np.shape(getattr(first.model, f))), np.float64) for f in arrays.model_fields}
         # each env's episode clock: control steps this episode, the time limit, whether the episode is over
         self._count, self._limit = np.zeros(n, np.float64), np.zeros(n, np.float64)

@@ -287,21 +287,17 @@ class BatchedSuiteEnv(EnvBase):
             self._pending.append(self._pool.submit(render))
 
     def _each_chunk(self, indices, act) -> None:
-        """``act(worlds)`` for the worlds ``indices`` of each chunk in turn (int64, maybe empty), each chunk
+        """``act(chunk, worlds)`` for the worlds ``indices`` of each chunk in turn (int64, maybe empty), each chunk
         rendered once its worlds are done (every chunk is rendered, so that every env's frame is its
         current scene), while the next chunk's worlds are acted on."""
         todo = np.zeros(self.num_envs, bool)
         todo[indices] = True
         for chunk, span in enumerate(self._chunks):
-            act(span.start + np.flatnonzero(todo[span.start:span.stop]))
+            act(chunk, span.start + np.flatnonzero(todo[span.start:span.stop]))
             self._render_chunk(chunk)
         pending, self._pending = self._pending, []
         for future in pending:
             future.result()
-
-    def _chunk_of(self, worlds: np.ndarray) -> int:
-        """The chunk the worlds (all in one chunk) are in."""
-        return int(np.searchsorted([span.stop for span in self._chunks], worlds[0], side="right")) if len(worlds) else 0
 
     def _output(self, with_reward: bool) -> TensorDictBase:
         out = {"pixels": self._pixels.clone()}
@@ -324,7 +320,7 @@ class BatchedSuiteEnv(EnvBase):
         indices = marked(tensordict, "_step", self.num_envs)
         self._reward[:] = 0.0
 
-        def step(worlds: np.ndarray) -> None:
+        def step(chunk: int, worlds: np.ndarray) -> None:
             start = time.perf_counter()
             over = np.ones(len(worlds), bool) if self.physics is None else self.physics.ended[worlds]
             fast, slow = worlds[~over], worlds[over]  # slow: other tasks, and episodes over (dm_control's step resets them)
@@ -345,7 +341,7 @@ class BatchedSuiteEnv(EnvBase):
             physics = time.perf_counter()
             for worlds_of in (self._camera, self._color, self._background):  # the distractions over arrays
                 worlds_of.advance(worlds)
-            self._place(self._chunk_of(worlds), worlds)
+            self._place(chunk, worlds)
             self.seconds["physics"] += physics - start
             self.seconds["scene"] += time.perf_counter() - physics
 
@@ -356,7 +352,7 @@ class BatchedSuiteEnv(EnvBase):
         self._check_open()
         indices = marked(tensordict, "_reset", self.num_envs)
 
-        def reset(worlds: np.ndarray) -> None:
+        def reset(chunk: int, worlds: np.ndarray) -> None:
             for i in worlds.tolist():  # a world's own reset (physics, task, distractions' draws): an episode start
                 observation = self._worlds[i].env.reset()
                 if self.physics is not None:
@@ -364,7 +360,7 @@ class BatchedSuiteEnv(EnvBase):
                 self._done[i] = False
                 for key in self._state_keys:
                     self._obs[key][i] = observation.get(key).numpy()
-            self._place(self._chunk_of(worlds), worlds, started=True)
+            self._place(chunk, worlds, started=True)
 
         self._each_chunk(indices, reset)
         return self._output(with_reward=False)

@@ -448,3 +448,32 @@ def test_a_second_writer_of_a_set_is_refused_and_leaves_nothing(small_set, tmp_p
                                                       "end, then run this command again"):
             generate(out, episodes=EPISODES + 1, seed=0, **SET)
     assert sorted(p.relative_to(out) for p in out.rglob("*")) == before  # no temporary folder left
+
+
+class _CreatesFile:
+    """Unpickled, it creates ``path``: the stand-in for a dataset folder that would run code."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return open, (self.path, "w")
+
+
+def test_a_set_holding_a_pickle_is_refused_and_runs_nothing(small_set, tmp_path):
+    """A set folder handed over with a pickled object among its memory-mapped data: load refuses it naming
+    why, and nothing of it runs."""
+    from tensordict import NonTensorData
+
+    out, marker = _copy(small_set, tmp_path), tmp_path / "ran"
+    data = out / layout.DATA
+    td = load_data(out).to_tensordict()
+    td["note"] = NonTensorData(_CreatesFile(marker))
+    table = (data / layout._TABLE).read_text()
+    shutil.rmtree(data)
+    td.memmap(data)
+    (data / layout._TABLE).write_text(table)
+    assert list(data.rglob("*.pickle")), "the planted object was not pickled"
+    with pytest.raises(ValueError, match="holds pickled Python objects"):
+        load(out, batch_size=4)
+    assert not marker.exists()

@@ -157,7 +157,7 @@ def _sources(out: Path, episodes: int) -> list[tuple[dict, TensorDict, int, int]
             chunk = out / EPISODES / f"{k:06d}"
             if not chunk.is_dir():
                 raise FileNotFoundError(f"{out}: episode {k} is missing; run generate again to write it.")
-            sources.append((read_json(chunk / _TABLE), TensorDict.load_memmap(chunk), 0, 0))
+            sources.append((read_json(chunk / _TABLE), _memmap(chunk), 0, 0))
     return sources
 
 
@@ -209,4 +209,16 @@ def load_data(out: Path) -> TensorDict:
         check_set(out)
         raise FileNotFoundError(f"{os.fspath(out)} is an unfinished dataset ({os.fspath(table)} is missing: a generate "
                                 f"run was stopped, or is running); resume it with: {resume_command(out)}")
-    return TensorDict.load_memmap(out / DATA)
+    return _memmap(out / DATA)
+
+
+def _memmap(folder: Path) -> TensorDict:
+    """The memory-mapped TensorDict in ``folder``, refused if it holds pickled Python objects (a set this suite
+    writes holds tensors only; unpickling a folder someone hands over could run code)."""
+    try:
+        return TensorDict.load_memmap(folder, allow_pickle=False)
+    except RuntimeError as error:
+        if "pickle" not in str(error).lower():
+            raise
+        raise ValueError(f"{os.fspath(folder)} holds pickled Python objects, which a dataset of this suite never "
+                         "does: it was not loaded, as unpickling it could run code.") from None

@@ -89,6 +89,7 @@ class SpawnedPool(ProcessPoolExecutor):
         super().__init__(processes, mp_context=mp.get_context("spawn"), initializer=_start,
                          initargs=(os.getpid(), threads, initializer, initargs))
         self._environment = dict(environment or {})
+        self._started: dict = {}  # pid -> process, in the order they started: the pool forgets them when one dies
 
     def died(self, what: str, fewer: str) -> WorkerDiedError:
         """The error for a job lost with a process of the pool that died (``future.result()`` raised
@@ -96,7 +97,7 @@ class SpawnedPool(ProcessPoolExecutor):
         ``"evaluation process"``; numbered in the order they started), how it ended and ``fewer``,
         the fix for memory (:func:`worker_died`). Call it before the pool is shut down (leaving its
         ``with`` block), which forgets its processes."""
-        processes = list((self._processes or {}).values())
+        processes = list(self._started.values())
         for process in processes:  # the pool ends the others (SIGTERM): their exit codes are then known
             process.join(timeout=5)
         ended = [(i, p) for i, p in enumerate(processes) if p.exitcode is not None]
@@ -121,7 +122,9 @@ class SpawnedPool(ProcessPoolExecutor):
     def submit(self, fn: Callable, /, *args, **kwargs) -> Future:
         # the pool spawns a process when a job finds none free: in this call, with the environment set
         with spawn_environment(self._environment):
-            return super().submit(fn, *args, **kwargs)
+            future = super().submit(fn, *args, **kwargs)
+        self._started.update(self._processes or {})
+        return future
 
 
 def _start(parent: int, threads: int, initializer: Callable | None, initargs: tuple) -> None:

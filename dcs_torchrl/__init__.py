@@ -29,6 +29,8 @@ _PUBLIC = {
     "CameraDistraction": "dcs_torchrl.distractions",
     "ColorDistraction": "dcs_torchrl.distractions",
     "DistractionTransform": "dcs_torchrl.distractions",
+    "LightingDistraction": "dcs_torchrl.distractions",
+    "TextureDistraction": "dcs_torchrl.distractions",
     "EnvOptions": "dcs_torchrl.envs",
     "EnvSettings": "dcs_torchrl.envs",
     "make_env": "dcs_torchrl.envs",

@@ -11,6 +11,8 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass
 
+import numpy as np
+
 from torchrl.envs import Compose, DMControlWrapper, EnvBase, ParallelEnv, SerialEnv, Transform, TransformedEnv
 
 from dcs_torchrl._compat.private_api import container_of, dm_physics
@@ -125,6 +127,14 @@ class _Originals:
     def __init__(self, physics):
         model = physics.model
         self.mat_rgba = model.mat_rgba.copy()
+        self.mat_texid = model.mat_texid.copy()
+        self.light_ambient = model.light_ambient.copy()
+        self.light_diffuse = model.light_diffuse.copy()
+        self.light_specular = model.light_specular.copy()
+        headlight = model.vis.headlight
+        self.headlight_ambient = np.array(headlight.ambient, np.float64)
+        self.headlight_diffuse = np.array(headlight.diffuse, np.float64)
+        self.headlight_specular = np.array(headlight.specular, np.float64)
         self.tex_size = {i: (int(model.tex_width[i]), int(model.tex_height[i])) for i in range(model.ntex)}
         self._model = model
         self._textures: dict[int, object] = {}

@@ -1,6 +1,7 @@
 """make_env: one line from a task and a benchmark preset to a distracting pixel env."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import inspect
@@ -14,8 +15,12 @@ from dm_control import suite
 from torchrl.envs import Compose, DMControlEnv, EnvBase, ExcludeTransform, TransformedEnv
 
 from dcs_torchrl import presets
-from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
+from dcs_torchrl.distractions import (BackgroundDistraction, CameraDistraction, ColorDistraction, LightingDistraction,
+                                      TextureDistraction)
 from dcs_torchrl.distractions.background import as_video_source
+from dcs_torchrl.distractions.base import check_scale
+from dcs_torchrl.distractions.texture import surface_slot
+from dcs_torchrl.textures import TEXTURE_SPLITS
 from dcs_torchrl.render.gl import RenderPixels, check_profile
 
 
@@ -62,10 +67,20 @@ class EnvOptions:
                "does (see :class:`BackgroundDistraction`), instead of onto the original sky as the paper "
                "describes. Only matters for β_bg < 1.")
     texture_size: int = _option(256, "side of the background texture.")
+    light_scale: float = _option(0.0, "β_light in [0, 1]: the scene's lights turned, dimmed and tinted "
+                                      "(:class:`LightingDistraction`; beyond the paper, docs/lighting_textures.md). "
+                                      "0: the task's lighting.")
+    texture_scale: float = _option(0.0, "β_tex in [0, 1]: the floor and the bodies textured from a set, blended "
+                                        "with their own look by β_tex (:class:`TextureDistraction`; beyond the "
+                                        "paper). 0: the task's surfaces.")
+    texture_dir: str | os.PathLike | None = _option(
+        None, "a folder of texture images (e.g. the Describable Textures Dataset's ``images``); ``None`` uses the "
+              "stand-in textures made on first use.")
+    texture_split: str = _option("train", '``"train"`` or ``"val"`` (held-out textures: every fifth image).')
     # How the env is built and rendered: make_env's (and the Gymnasium env's) only.
     seed: int | None = _option(None, "seeds the physics and every distraction (``env.set_seed``); the pixel "
                                      "sequence is then reproducible bit for bit.", scene=False)
-    expose_distractions: bool = _option(False, 'add ``("distractions", "camera" | "color" | "background")`` '
+    expose_distractions: bool = _option(False, 'add ``("distractions", "camera" | "color" | "background" | "lighting" | "texture")`` '
                                                "to every observation, with specs.", scene=False)
     height: int = _option(84, "image height.", scene=False)
     width: int = _option(84, "image width.", scene=False)
@@ -109,9 +124,19 @@ def scene_options(settings) -> dict:
     return {k: getattr(settings, k) for k in SCENE_OPTIONS}
 
 
+#: The settings of the distractions beyond the paper, each with the value at which its distraction is off:
+#: :meth:`EnvSettings.as_dict` records them where their distraction is on, so that the record of an env
+#: of the paper's settings (results.json, a dataset's metadata, a robustness point's identity) is what
+#: it was before they existed.
+BEYOND_PAPER = {"light_scale": ("light_scale", 0.0), "texture_scale": ("texture_scale", 0.0),
+                "texture_dir": ("texture_scale", 0.0), "texture_split": ("texture_scale", 0.0)}
+
+
 def _as_dict(self) -> dict:
-    """The settings as a dict: what results.json's ``train_env`` / ``eval_env`` and a dataset's metadata record."""
-    return dataclasses.asdict(self)
+    """The settings as a dict: what results.json's ``train_env`` / ``eval_env`` and a dataset's metadata
+    record (the settings of :data:`BEYOND_PAPER` only where their distraction is on)."""
+    return {k: v for k, v in dataclasses.asdict(self).items()
+            if k not in BEYOND_PAPER or getattr(self, BEYOND_PAPER[k][0]) != BEYOND_PAPER[k][1]}
 
 
 EnvSettings = dataclasses.make_dataclass(
@@ -191,7 +216,17 @@ def resolve_settings(domain: str, task: str, **options) -> EnvSettings:
         camera_id=int(pick("camera_id", presets.default_camera(domain))),
         reference_blend=bool(o["reference_blend"]),
         texture_size=texture_size,
+        light_scale=check_scale("light_scale", o["light_scale"]),
+        texture_scale=check_scale("texture_scale", o["texture_scale"]),
+        texture_dir=None if o.get("texture_dir") is None else os.fspath(o["texture_dir"]),
+        texture_split=_texture_split(o["texture_split"]),
     )
+
+
+def _texture_split(split: str) -> str:
+    if split not in TEXTURE_SPLITS:
+        raise ValueError(f"unknown texture_split {split!r}; choose one of {list(TEXTURE_SPLITS)}.")
+    return split
 
 
 def make_env(domain: str, task: str, **options) -> EnvBase:
@@ -199,7 +234,9 @@ def make_env(domain: str, task: str, **options) -> EnvBase:
 
     Builds ``TransformedEnv(DMControlEnv(domain, task, from_pixels=False,
     frame_skip=action_repeat), Compose(CameraDistraction, ColorDistraction,
-    BackgroundDistraction, RenderPixels, ExcludeTransform(<state keys>)))`` from a benchmark preset
+    BackgroundDistraction, [LightingDistraction], [TextureDistraction], RenderPixels,
+    ExcludeTransform(<state keys>)))``, the lighting and texture distractions (beyond the paper) only where
+    ``light_scale`` / ``texture_scale`` is not 0 from a benchmark preset
     (:data:`dcs_torchrl.BENCHMARKS`) and the paper's action repeat
     (:data:`dcs_torchrl.TASKS`); every setting can be overridden.
 
@@ -332,10 +369,12 @@ def _warp_env(groups: list[tuple[EnvSettings, int]], o: EnvOptions, physics_thre
     import_warp()  # the extra's error first
     expose = bool(o.expose_distractions)
     first = groups[0][0]
-    worlds = [_distracted_env(first, expose)]  # the batch renders from its model
+    # every world has the distractions beyond the paper that any group uses: one set of states for all
+    beyond = (any(s.light_scale > 0 for s, _ in groups), any(s.texture_scale > 0 for s, _ in groups))
+    worlds = [_distracted_env(first, expose, beyond=beyond)]  # the batch renders from its model
     for s, count in groups:
         with compact_skies(s):  # the others' skies are never rendered: their models hold a small one
-            worlds += [_distracted_env(s, expose) for _ in range(count - (s is first))]
+            worlds += [_distracted_env(s, expose, beyond=beyond) for _ in range(count - (s is first))]
     return BatchedSuiteEnv(worlds, height=o.height, width=o.width, camera_id=first.camera_id,
                            device="cpu" if o.device is None else o.device, pixels_only=o.pixels_only,
                            masks=o.masks, render_profile=o.render_profile, groups=[count for _, count in groups],
@@ -362,11 +401,15 @@ make_env.__signature__ = inspect.Signature(
 
 
 def _distracted_env(s: EnvSettings, expose: bool, device=None, render: RenderPixels | None = None,
-                    pixels_only: bool = False) -> TransformedEnv:
-    """The suite's env of settings ``s``: the three distractions, then ``render`` (if any), then the
-    state observations dropped (``pixels_only``)."""
+                    pixels_only: bool = False, beyond: tuple[bool, bool] | None = None) -> TransformedEnv:
+    """The suite's env of settings ``s``: the paper's three distractions, the lighting and texture ones where
+    ``beyond`` (``(lighting, texture)``; ``None``: where their scale is not 0, so that an env of the paper's
+    settings is today's, transform for transform), then ``render`` (if any), then the state observations
+    dropped (``pixels_only``)."""
+    lighting, texture = (s.light_scale > 0, s.texture_scale > 0) if beyond is None else beyond
     kwargs = {} if device is None else {"device": device}
-    base = DMControlEnv(s.domain, s.task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
+    with surface_slot() if s.texture_scale > 0 else contextlib.nullcontext():  # the bodies' texture
+        base = DMControlEnv(s.domain, s.task, from_pixels=False, frame_skip=s.action_repeat, **kwargs)
     transforms = Compose(
         CameraDistraction(s.camera_scale, s.dynamic, camera_id=s.camera_id, blind=s.blind, expose=expose),
         ColorDistraction(s.color_scale, s.dynamic, expose=expose),
@@ -376,6 +419,11 @@ def _distracted_env(s: EnvSettings, expose: bool, device=None, render: RenderPix
             reference_blend=s.reference_blend, expose=expose,
         ),
     )
+    if lighting:
+        transforms.append(LightingDistraction(s.light_scale, s.dynamic, expose=expose))
+    if texture:
+        transforms.append(TextureDistraction(s.texture_scale, texture_dir=s.texture_dir, split=s.texture_split,
+                                             expose=expose))
     if render is not None:
         transforms.append(render)
     if pixels_only:

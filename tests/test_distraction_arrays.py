@@ -88,20 +88,25 @@ def _states_alone(settings, seed: int, steps: int, resets: dict) -> list[dict]:
     return out
 
 
-PRESETS = [(b, d) for b in ("none", "easy", "medium", "blind", "hard") for d in (False, True)]
+PRESETS = [(b, d, {}) for b in ("none", "easy", "medium", "blind", "hard") for d in (False, True)]
+# the two axes beyond the paper, over a preset's three
+PRESETS += [("medium", d, {"light_scale": 0.6, "texture_scale": 0.5}) for d in (False, True)]
+KEYS = ("camera", "color", "background", "lighting", "texture")
 
 
-@pytest.mark.parametrize("benchmark, dynamic", PRESETS, ids=[f"{b}-{'dynamic' if d else 'static'}" for b, d in PRESETS])
-def test_every_worlds_distraction_states_are_those_of_one_env_with_its_seed(benchmark, dynamic):
-    """Every world of a batch, every step, the camera, colour and background states of one env seeded alike:
-    across a partial reset in the middle of a world's noise block and an episode's end (walker, action
-    repeat 2: a block is 32 agent steps; cartpole at action repeat 300: an episode is 4 agent steps)."""
+@pytest.mark.parametrize("benchmark, dynamic, extra", PRESETS,
+                         ids=[f"{b}-{'dynamic' if d else 'static'}{'-light-texture' if e else ''}" for b, d, e in PRESETS])
+def test_every_worlds_distraction_states_are_those_of_one_env_with_its_seed(benchmark, dynamic, extra):
+    """Every world of a batch, every step, the camera, colour, background, lighting and texture states of one
+    env seeded alike: across a partial reset in the middle of a world's noise block and an episode's end
+    (walker, action repeat 2: a block is 32 agent steps; cartpole at action repeat 300: an episode is 4 agent
+    steps)."""
     from dcs_torchrl.vector.batched import BatchedSuiteEnv
 
     for domain, task, repeat, steps, resets in (("walker", "walk", 2, 40, {0: {1}, 1: {5, 37}}),
                                                 ("cartpole", "swingup", 300, 10, {})):
         settings = resolve_settings(domain, task, benchmark=benchmark, dynamic=dynamic, action_repeat=repeat,
-                                    texture_size=16)
+                                    texture_size=16, **extra)
         n = 3
         env = BatchedSuiteEnv([_distracted_env(settings, True) for _ in range(n)], height=16, width=16,
                               render_chunks=2)
@@ -130,7 +135,8 @@ def test_every_worlds_distraction_states_are_those_of_one_env_with_its_seed(benc
                 else:  # a world not reset keeps its state through the others' reset
                     pairs = [(b["after"], a), (b["reset"], a)] if isinstance(b, dict) else [(b, a)]
                 for bb, aa in pairs:
-                    for key in ("camera", "color", "background"):
+                    assert set(bb.keys()) == set(aa.keys()) <= set(KEYS)
+                    for key in aa.keys():
                         assert torch.equal(bb[key][i], aa[key]), f"{domain} {benchmark}: world {i}, step {t}, {key}"
 
 
@@ -139,7 +145,8 @@ def _python_calls(n: int, steps: int = 16) -> float:
     medium dynamic, one render part: the render's calls are the same for any number of worlds)."""
     from dcs_torchrl.vector.batched import BatchedSuiteEnv
 
-    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True, texture_size=8)
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True, texture_size=8, light_scale=0.5,
+                                texture_scale=0.5)
     env = BatchedSuiteEnv([_distracted_env(settings, True) for _ in range(n)], height=8, width=8, render_chunks=1,
                           physics_threads=1)
     env.set_seed(0)
@@ -174,7 +181,8 @@ def test_the_python_calls_of_a_batch_step_do_not_grow_with_the_worlds():
 def test_a_clone_of_a_distraction_leaves_the_originals_episodes_alone():
     """TorchRL clones transforms (shallow copies: ``parent`` views, new envs); a clone reseeded or reset must not
     redirect the original's walk noise: the original's states stay those of an env with no clone."""
-    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True, action_repeat=2, texture_size=16)
+    settings = resolve_settings("cartpole", "swingup", benchmark="medium", dynamic=True, action_repeat=2, texture_size=16,
+                                light_scale=0.5, texture_scale=0.5)
     runs = []
     for cloned in (False, True):
         env = _distracted_env(settings, True)
@@ -190,5 +198,5 @@ def test_a_clone_of_a_distraction_leaves_the_originals_episodes_alone():
             states.append(td["distractions"].clone())
         runs.append(torch.stack(states))
         env.close()
-    for key in ("camera", "color", "background"):
+    for key in KEYS:
         assert torch.equal(runs[0][key], runs[1][key]), key

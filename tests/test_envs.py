@@ -86,6 +86,12 @@ def test_resolved_settings_are_plain_data():
         "action_repeat": 2, "camera_id": 0, "reference_blend": False, "texture_size": 256,
     }
     assert resolve_settings("walker", "walk", benchmark="hard", background_split="val").num_videos == 30
+    # the settings beyond the paper are recorded where their distraction is on
+    lit = resolve_settings("walker", "walk", light_scale=0.5).as_dict()
+    assert lit["light_scale"] == 0.5 and "texture_scale" not in lit and "texture_dir" not in lit
+    textured = resolve_settings("walker", "walk", texture_scale=0.25, texture_split="val").as_dict()
+    assert (textured["texture_scale"], textured["texture_dir"], textured["texture_split"]) == (0.25, None, "val")
+    assert "light_scale" not in textured
 
 
 def test_expose_distractions():

@@ -59,7 +59,7 @@ ROOMS = {
     "compat": ["dcs_torchrl._compat", "dcs_torchrl._compat.private_api", "dcs_torchrl._compat.judged_warnings"],
     "render": ["dcs_torchrl.presets", "dcs_torchrl._scene", "dcs_torchrl.render", "dcs_torchrl.render.warp",
                "dcs_torchrl.render.egl_devices"],
-    "distractions": ["dcs_torchrl.distractions", "dcs_torchrl.videos"],
+    "distractions": ["dcs_torchrl.distractions", "dcs_torchrl.videos", "dcs_torchrl.textures"],
     "envs": ["dcs_torchrl.envs"],
     "vector": ["dcs_torchrl.vector", "dcs_torchrl.vector.batched", "dcs_torchrl.vector.parallel",
                "dcs_torchrl.vector.process_pool"],

@@ -51,9 +51,16 @@ _set_missing_tolerance``                       augmentation applied at reset tol
 _prepare_value_estimator_kwargs``              ``make_value_estimator``'s defaults (gamma
                                                ...), as TorchRL's losses resolve them.
 ``dm_control.suite.common.ASSETS``             :func:`dcs_torchrl.vector.batched.compact_skies`: the
-(``./common/skybox.xml``'s text)               skybox's ``width``/``height`` rewritten while
-                                               the envs of a batch whose sky is never rendered
-                                               compile (dm_control takes no texture size).
+(``./common/skybox.xml``'s text,               skybox's ``width``/``height`` rewritten while
+``./common/materials.xml``'s)                  the envs of a batch whose sky is never rendered
+                                               compile (dm_control takes no texture size);
+                                               :func:`dcs_torchrl.distractions.texture.surface_slot`:
+                                               one more 2D texture for the bodies (dm_control
+                                               takes no extra assets for its suite models).
+``mujoco_warp.RenderContext``'s ``textures``,  :meth:`dcs_torchrl.render.warp.WarpRenderer.add_textures`:
+``textures_registry``                          the texture distraction's blends beside the model's
+                                               textures, which the trace samples by id (MuJoCo Warp
+                                               makes textures only from the model).
 ``mujoco_warp.RenderContext``'s ``rgb_data``,  :mod:`dcs_torchrl.render.warp`: one kernel reads
 ``rgb_adr``, ``seg_data``, ``seg_adr``,        the trace's packed colours, segmentation and
 ``ray``, ``cam_res``                           camera-frame rays where a camera's pixels start
@@ -118,7 +125,7 @@ PRIVATE_SYMBOLS = (
     ("torchrl.envs.DMControlEnv", "_env", "dcs_torchrl._scene, dcs_torchrl.gym_env, dcs_torchrl.vector.batched"),
     ("dm_control.mujoco.Physics", "_contexts", "dcs_torchrl.render.gl"),
     ("dm_control.mujoco.Physics", "_free_rendering_contexts", "dcs_torchrl.render.gl"),
-    ("dm_control.suite.common", "ASSETS", "dcs_torchrl.vector.batched"),
+    ("dm_control.suite.common", "ASSETS", "dcs_torchrl.vector.batched, dcs_torchrl.distractions.texture"),
     ("torchrl.envs.transforms.utils", "_set_missing_tolerance", "dcs_torchrl.modules.augment"),
     ("torchrl.objectives.utils", "_vmap_func", "dcs_torchrl.objectives.qtopt"),
     ("torchrl.objectives.SACLoss", "_compute_target_v2", "dcs_torchrl.objectives.sac"),
@@ -132,7 +139,8 @@ PRIVATE_SYMBOLS = (
     ("torchrl._utils", "seed_generator", "dcs_torchrl.datasets.metadata"),
 ) + tuple(("dm_control.rl.control.Environment", field, "dcs_torchrl.vector.batch_physics")
           for field in ("_step_count", "_step_limit", "_reset_next_step", "_n_sub_steps")) + tuple(("mujoco_warp.RenderContext", field, "dcs_torchrl.render.warp")
-          for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel")) + (
+          for field in ("rgb_data", "rgb_adr", "seg_data", "seg_adr", "ray", "cam_res", "_megakernel", "textures",
+                        "textures_registry")) + (
     ("warp.Device", "runtime", "dcs_torchrl.render.warp"), ("warp.Device", "context_guard", "dcs_torchrl.render.warp"),
     ("warp._src.context.Runtime", "default_device", "dcs_torchrl.render.warp"),
     ("mujoco.MjModel", "_address", "dcs_torchrl.vector._mjstep"),

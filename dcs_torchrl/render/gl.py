@@ -139,6 +139,14 @@ class _Context:
         # the GPU copy holds none of it yet (new storage) or an earlier frame
         self.pending[tex_id] = _CubeContent(faces)
 
+    def upload_textures(self, tex_ids) -> None:
+        """Sends 2D textures ``tex_ids`` whose data the caller rewrote in ``model.tex_data`` (whole, as MuJoCo
+        uploads them: a texture distraction rewrites them once an episode)."""
+        model, contexts = self.physics.model, self.physics.contexts
+        with contexts.gl.make_current() as ctx:
+            for tex_id in dict.fromkeys(int(t) for t in tex_ids):
+                ctx.call(mujoco.mjr_uploadTexture, model.ptr, contexts.mujoco.ptr, tex_id)
+
     def upload_visible(self, camera_id: int, aspect: float) -> None:
         """Sends the texels of pending cube textures that a render of ``camera_id`` samples and lack.
 

@@ -7,6 +7,7 @@ world's camera (MuJoCo Warp's ``render``: the scene BVH refitted, shading with t
 textures, optional shadows) with the sky left black, then one kernel of this module finishes each
 pixel as MuJoCo's OpenGL renderer does for the suite's scenes:
 
+* where a ray meets a surface, its lit colour times the world's ``light_gain`` (RGB);
 * where a ray meets nothing, the world's sky (a cube map: six faces, or one face on all six as the
   background distraction writes it) sampled along the pixel's ray, bilinear;
 * where it meets a surface whose colour is not opaque (the floor at the preset's ``ground_alpha``),
@@ -144,6 +145,14 @@ class WorldState:
     own, one row every world shares, or a frame of a table of video frames. Whoever changes the
     rows' content raises ``sky_version`` (a CUDA renderer then uploads them again); the CPU renderer
     reads ``sky`` where it lies.
+
+    Lighting and textures per world: ``light_ambient`` is each world's ``light_ambient`` (MuJoCo Warp
+    adds ``colour * ambient`` of every active light to each surface, lit or not); ``light_gain``
+    multiplies each world's lit surface colour (RGB; the sky is never multiplied), which is scaling
+    every light's colour, the headlight's included, by it, up to the clamping of the lit colour to
+    white; ``mat_texid`` is each material's RGB texture (MuJoCo's ``mat_texid[:, mjTEXROLE_RGB]``,
+    -1 for none): a model texture's id or one :meth:`WarpRenderer.add_textures` returned.
+    :meth:`empty` and :meth:`WarpRenderer.state` fill them with the model's values and a gain of 1.
     """
 
     geom_xpos: np.ndarray  # [n, ngeom, 3]
@@ -155,17 +164,36 @@ class WorldState:
     mat_rgba: np.ndarray  # [n, nmat, 4]
     sky: np.ndarray  # [rows, faces, side, side, 3] uint8
     sky_index: np.ndarray  # [n] int32: the row of sky each world shows
+    light_ambient: np.ndarray  # [n, nlight, 3]
+    light_gain: np.ndarray  # [n, 3]: the lit surface colour's multiplier
+    mat_texid: np.ndarray  # [n, nmat] int32: each material's RGB texture, -1 for none
     sky_version: int = 0
 
     @classmethod
     def empty(cls, model, n: int, sky: np.ndarray) -> "WorldState":
+        """Zero poses and colours; the model's lights' ambient and materials' textures in every world, gain 1."""
         f32 = np.float32  # as Warp keeps them
-        return cls(
+        state = cls(
             geom_xpos=np.zeros((n, model.ngeom, 3), f32), geom_xmat=np.zeros((n, model.ngeom, 9), f32),
             cam_xpos=np.zeros((n, model.ncam, 3), f32), cam_xmat=np.zeros((n, model.ncam, 9), f32),
             light_xpos=np.zeros((n, model.nlight, 3), f32), light_xdir=np.zeros((n, model.nlight, 3), f32),
             mat_rgba=np.zeros((n, model.nmat, 4), np.float32), sky=sky, sky_index=_first_rows(n, sky),
+            light_ambient=np.zeros((n, model.nlight, 3), f32), light_gain=np.zeros((n, 3), f32),
+            mat_texid=np.zeros((n, model.nmat), np.int32),
         )
+        _model_lighting(model, state)
+        return state
+
+
+def _model_lighting(model, state: WorldState) -> None:
+    """``state``'s lighting and textures set to the model's in every world, with a gain of 1."""
+    state.light_ambient[:] = np.asarray(model.light_ambient, np.float32).reshape(-1, 3)
+    state.light_gain[:] = 1.0
+    state.mat_texid[:] = np.asarray(model.mat_texid).reshape(-1, mujoco.mjtTextureRole.mjNTEXROLE)[:, _RGB]
+
+
+#: The column of ``mat_texid`` MuJoCo Warp's render reads (the texture role ``mjTEXROLE_RGB``).
+_RGB = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
 
 
 def _first_rows(n: int, sky: np.ndarray) -> np.ndarray:
@@ -274,6 +302,7 @@ def _kernels(wp):
         agent: wp.array(dtype=wp.uint8),
         sky: wp.array(dtype=wp.uint8, ndim=4),
         sky_index: wp.array(dtype=wp.int32),
+        light_gain: wp.array(dtype=wp.vec3),
         width: int,
         pixels: wp.array(dtype=wp.uint8, ndim=4),
         labels: wp.array3d(dtype=wp.uint8),
@@ -289,6 +318,7 @@ def _kernels(wp):
         geom = seg[world, seg_adr + pixel][0]
         a = float(0.0)  # a ray that meets nothing shows the sky
         if geom >= 0:
+            color = wp.cw_mul(color, light_gain[world])  # the lit surface only, before the sky shows through
             a = alpha[world, geom]
             # MuJoCo's GL draws each transparent geom twice, front to back then back to front
             # (render_gl3.c, "transparent regular rendering"): over the sky, 1 - (1 - a)^2 of it shows
@@ -336,7 +366,8 @@ class WarpRenderer:
         self.torch_device = torch.device(self.device)
         mjm = model.ptr if hasattr(model, "ptr") else model
         with DEFAULT_DEVICE.scope(wp.get_device(self.device)):
-            self.model = mjw.put_model(mjm, batch_sizes={"mat_rgba": self.n})
+            self.model = mjw.put_model(mjm, batch_sizes={"mat_rgba": self.n, "light_ambient": self.n,
+                                                         "mat_texid": self.n})
             self.data = mjw.make_data(mjm, nworld=self.n, nconmax=1, njmax=1)
             self.context = mjw.create_render_context(
                 mjm, nworld=self.n, cam_res=(self.width, self.height), render_rgb=True, render_depth=False,
@@ -355,6 +386,7 @@ class WarpRenderer:
             self._geom_label = wp.array(label, dtype=wp.uint8)
             self._alpha = wp.zeros((self.n, mjm.ngeom), dtype=float)
             self._sky_index = wp.zeros(self.n, dtype=wp.int32)
+            self._light_gain = wp.ones(self.n, dtype=wp.vec3)
             self._sky, self._sky_source = None, None  # the sky on this device, and what it holds: (array, version)
             self._finish = _kernels(wp)
             # Build this renderer's kernels now, in the thread that makes it: MuJoCo Warp specialises
@@ -365,6 +397,11 @@ class WarpRenderer:
             mjw.render(self.model, self.data, self.context)
             wp.load_module(self._finish.module, device=self.device)
         self._mjm, self._own = mjm, None
+        # every texture the trace may sample (the model's, then those added), kept alive here: Warp's
+        # array of textures holds their handles, not the textures
+        self._textures = list(self.context.textures_registry)
+        # the model's texture ids of every role: a CUDA render writes the RGB column of each world into it
+        self._mat_texid = np.array(self.model.mat_texid.numpy())
         self._mjw = mjw
         # the colour (geom's or material's, as MuJoCo picks it) whose alpha says how much sky shows through
         self._geom_matid = np.asarray(mjm.geom_matid).copy()
@@ -376,9 +413,10 @@ class WarpRenderer:
 
     def state(self, sky: np.ndarray) -> WorldState:
         """A :class:`WorldState` to fill for :meth:`render`, showing ``sky`` (uint8 ``[rows, faces, side,
-        side, 3]``, the caller's; world ``i`` row ``i % rows`` until its ``sky_index`` says otherwise). On
-        the CPU its poses are this renderer's own arrays (float32, as Warp keeps them) and ``sky`` is read
-        where it lies: a render then copies nothing in."""
+        side, 3]``, the caller's; world ``i`` row ``i % rows`` until its ``sky_index`` says otherwise; the
+        model's lighting and textures, gain 1). On the CPU its poses, lighting and textures are this
+        renderer's own arrays (float32, as Warp keeps them) and ``sky`` is read where it lies: a render
+        then copies nothing in."""
         d, m, n = self.data, self.model, self.n
         if self.device != "cpu":
             state = WorldState.empty(self._mjm, n, sky)
@@ -387,9 +425,11 @@ class WarpRenderer:
                 geom_xpos=d.geom_xpos.numpy(), geom_xmat=d.geom_xmat.numpy().reshape(n, -1, 9),
                 cam_xpos=d.cam_xpos.numpy(), cam_xmat=d.cam_xmat.numpy().reshape(n, -1, 9),
                 light_xpos=d.light_xpos.numpy(), light_xdir=d.light_xdir.numpy(), mat_rgba=m.mat_rgba.numpy(),
-                sky=sky, sky_index=self._sky_index.numpy(),
+                sky=sky, sky_index=self._sky_index.numpy(), light_ambient=m.light_ambient.numpy(),
+                light_gain=self._light_gain.numpy(), mat_texid=m.mat_texid.numpy()[:, :, _RGB],
             )
             state.sky_index[:] = _first_rows(n, sky)
+            _model_lighting(self._mjm, state)
         self._own = state
         return state
 
@@ -416,6 +456,50 @@ class WarpRenderer:
         source = wp.array(np.ascontiguousarray(values, dtype=host), dtype=dtype, device="cpu", copy=False)
         wp.copy(target, source)
 
+    def add_textures(self, images) -> int:
+        """Adds textures the worlds' materials may show (through ``WorldState.mat_texid``); returns the id of
+        the first, the others following it (the model's textures keep their ids).
+
+        Args:
+            images: uint8 ``[K, height, width, 3]`` (numpy or a torch tensor), K >= 1: RGB, opaque. Each
+                becomes a texture as MuJoCo Warp makes the model's own, so an image equal to a model
+                texture's pixels renders as that texture does.
+        """
+        if isinstance(images, torch.Tensor):
+            images = images.detach().cpu().numpy()
+        images = np.asarray(images)
+        if images.dtype != np.uint8:
+            raise TypeError(f"add_textures takes uint8 images, got {images.dtype}: convert them, e.g. "
+                            "(image * 255).round().astype(np.uint8) for colours in [0, 1].")
+        if images.ndim != 4 or images.shape[-1] != 3:
+            raise ValueError(f"add_textures takes images [K, height, width, 3] (RGB), got shape {images.shape}: "
+                             "stack them on a first axis (one image: images[None]).")
+        if not all(images.shape[:3]):
+            raise ValueError(f"add_textures takes at least one image of at least one pixel, got shape {images.shape}.")
+        wp = self._wp
+        # as MuJoCo Warp converts a texture (render_util._convert_texture_data): float RGBA, each byte
+        # times the float32 1/255, alpha 255 where there is none
+        scale = np.float32(1.0 / 255.0)
+        rgba = np.empty((*images.shape[:3], 4), np.float32)
+        rgba[..., :3] = images.astype(np.float32) * scale
+        rgba[..., 3] = np.float32(255.0) * scale
+        first = len(self._textures)
+        with DEFAULT_DEVICE.scope(wp.get_device(self.device)):
+            added = [wp.Texture2D(wp.array(image, dtype=float, device=self.device),
+                                  filter_mode=wp.TextureFilterMode.LINEAR) for image in rgba]
+            textures = self._textures + added
+            self.context.textures = wp.array(textures, dtype=wp.Texture2D, device=self.device)
+        self._textures = self.context.textures_registry = textures
+        return first
+
+    def _check_texids(self, mat_texid: np.ndarray) -> None:
+        """Refuses a texture id that names no texture (the trace would read past its textures)."""
+        if mat_texid.size and (mat_texid.min() < -1 or mat_texid.max() >= len(self._textures)):
+            bad = mat_texid[(mat_texid < -1) | (mat_texid >= len(self._textures))]
+            raise ValueError(f"WorldState.mat_texid holds {int(bad[0])}, not a texture of this renderer (ids -1 for "
+                             f"none to {len(self._textures) - 1}): add the image with add_textures and use the "
+                             "id it returns.")
+
     def render(self, state: WorldState) -> tuple[torch.Tensor, torch.Tensor | None]:
         """Renders every world of ``state``: ``(pixels [n, h, w, 3] uint8, labels [n, h, w] uint8 or None)``.
 
@@ -423,6 +507,7 @@ class WarpRenderer:
         """
         wp, mjw, d, m, rc = self._wp, self._mjw, self.data, self.model, self.context
         n = self.n
+        self._check_texids(state.mat_texid)
         start = time.perf_counter()
         with DEFAULT_DEVICE.scope(wp.get_device(self.device)):
             if state is not self._own or self.device != "cpu":  # else the arrays are Warp's already
@@ -435,6 +520,11 @@ class WarpRenderer:
                     self._put(d.light_xdir, state.light_xdir, wp.vec3)
                 self._put(m.mat_rgba, state.mat_rgba, wp.vec4)
                 self._put(self._sky_index, state.sky_index, wp.int32)
+                if m.nlight:
+                    self._put(m.light_ambient, state.light_ambient, wp.vec3)
+                self._put(self._light_gain, state.light_gain, wp.vec3)
+                self._mat_texid[:, :, _RGB] = state.mat_texid
+                self._put(m.mat_texid, self._mat_texid, wp.int32)
             self._put_sky(state)
             alpha = np.where(self._uses_material[None], state.mat_rgba[:, self._geom_matid.clip(0), 3],
                              self._geom_rgba[None, :, 3])
@@ -445,7 +535,7 @@ class WarpRenderer:
                 self._finish, dim=(n, self.height * self.width),
                 inputs=[rc.rgb_data, self._offsets.rgb, rc.seg_data, self._offsets.seg, rc.ray, self._offsets.ray,
                         d.cam_xmat, self.camera_id, self._alpha, self._geom_label, self._sky, self._sky_index,
-                        self.width, self.pixels,
+                        self._light_gain, self.width, self.pixels,
                         self.labels, int(self.want_labels)],
             )
             if self.device != "cpu":

@@ -71,9 +71,12 @@ def _scene_label(s) -> str:
     parts += [f"colour {s.color_scale:g}"] if s.color_scale > 0 else []
     parts += [f"{s.num_videos} videos"] if s.num_videos > 0 else []
     parts += ["blind"] if s.blind else []
-    if not parts:
+    beyond = [f"light {s.light_scale:g}"] if s.light_scale > 0 else []  # beyond the paper: named beside a benchmark
+    beyond += [f"texture {s.texture_scale:g}"] if s.texture_scale > 0 else []
+    if not parts + beyond:
         return "no distractions"
     what = s.benchmark if s.benchmark != "none" else ", ".join(parts)  # resolved settings: always a name
+    what = ", ".join(([what] if parts else []) + beyond)
     return f"{what}, {'dynamic' if s.dynamic else 'static'}"
 
 

@@ -36,12 +36,15 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Composite
 from torchrl.envs import EnvBase, TransformedEnv
 
-from dcs_torchrl._scene import locate
-from dcs_torchrl.distractions import BackgroundDistraction, CameraDistraction, ColorDistraction
+from dcs_torchrl._scene import locate, originals
+from dcs_torchrl.distractions import (BackgroundDistraction, CameraDistraction, ColorDistraction, LightingDistraction,
+                                      TextureDistraction)
 from dcs_torchrl.distractions.background import BackgroundWorlds
 from dcs_torchrl.distractions.base import DistractionTransform
 from dcs_torchrl.distractions.camera import CameraWorlds
 from dcs_torchrl.distractions.color import ColorWorlds
+from dcs_torchrl.distractions.lighting import LightingWorlds
+from dcs_torchrl.distractions.texture import TextureWorlds
 from dcs_torchrl.render.gl import check_profile
 from dcs_torchrl.render.skies import BatchSkies
 from dcs_torchrl.render.warp import MASK_LABELS, WarpRenderer
@@ -188,8 +191,10 @@ class BatchedSuiteEnv(EnvBase):
         frame_skip = np.array([w.frame_skip for w in self._worlds], np.int64)
         self._camera, self._color = CameraWorlds(n, frame_skip), ColorWorlds(n, model.nmat, frame_skip)
         self._background = BackgroundWorlds(n, frame_skip)
+        self._lighting, self._texture = LightingWorlds(n, frame_skip), TextureWorlds(n)
         arrays = {CameraDistraction: self._camera, ColorDistraction: self._color,
-                  BackgroundDistraction: self._background}
+                  BackgroundDistraction: self._background, LightingDistraction: self._lighting,
+                  TextureDistraction: self._texture}
         for i, world in enumerate(self._worlds):
             for t in world.distractions:
                 t.share(arrays[type(t)], i)
@@ -205,6 +210,9 @@ class BatchedSuiteEnv(EnvBase):
                                 self._background.changed, self._chunks, height, camera_id, sky_table,
                                 device.type == "cuda")
         self._scenes = [renderer.state(self.skies.array(c)) for c, renderer in enumerate(self.renderers)]
+        self._add_textures()
+        self._model_texid = np.asarray(model.mat_texid)[:, int(mujoco.mjtTextureRole.mjTEXROLE_RGB)].astype(np.int32)
+        self._light_ambient = originals(first.physics).light_ambient.astype(np.float32)
         self._kinematics = Kinematics([w.physics.data.ptr for w in self._worlds])
         self._pixels = torch.zeros((n, height, width, 3), dtype=torch.uint8, device=device)
         self._labels = torch.zeros((n, height, width), dtype=torch.uint8, device=device) if masks else None
@@ -248,6 +256,21 @@ class BatchedSuiteEnv(EnvBase):
         self.reward_spec = env.reward_spec.expand(n, *env.reward_spec.shape).to(device)
         self.done_spec = env.full_done_spec.expand(n).to(device)
 
+    def _add_textures(self) -> None:
+        """Every texture distraction's blends (each set once) among every renderer's textures, and each
+        world told where its own lie (:attr:`TextureWorlds.first`)."""
+        added: dict[int, int] = {}
+        for i, world in enumerate(self._worlds):
+            t = next((t for t in world.distractions if isinstance(t, TextureDistraction)), None)
+            if t is None or t.scale == 0:
+                continue
+            for column, images in enumerate((t.floor_images, t.body_images)):
+                if images is None or not images.size:
+                    continue
+                if id(images) not in added:
+                    added[id(images)] = [r.add_textures(images) for r in self.renderers][0]
+                self._texture.first[i, column] = added[id(images)]
+
     # --------------------------------------------------------------- gathering
     def _place(self, chunk: int, rows: np.ndarray, started: bool = False) -> None:
         """The scene of the worlds ``rows`` (int64, all in part ``chunk``) into that part's arrays, as whole
@@ -262,10 +285,14 @@ class BatchedSuiteEnv(EnvBase):
             getattr(scene, field)[local] = kinematics[field][rows]
         if started:  # a world's materials as its episode starts them (the floor's alpha); the colours below
             scene.mat_rgba[local] = np.stack([self._worlds[i].physics.model.mat_rgba for i in rows.tolist()])
+            scene.mat_texid[local] = self._model_texid
+            self._texture.place(rows, offset, scene.mat_texid)
             self.skies.started(rows.tolist())
         self._camera.place(rows, offset, kinematics["cam_xpos"], kinematics["cam_xmat"], kinematics["subtree_com"],
                            kinematics["xpos"], scene.cam_xpos, scene.cam_xmat)
         self._color.place(rows, offset, scene.mat_rgba)
+        self._lighting.place(rows, offset, kinematics["light_xpos"], kinematics["light_xdir"], self._light_ambient,
+                             scene.light_xpos, scene.light_xdir, scene.light_ambient, scene.light_gain)
         self.skies.update(chunk, scene, rows)
         for key, worlds in self._exposed.items():
             self._states[key][rows] = worlds.states(rows)
@@ -339,7 +366,7 @@ class BatchedSuiteEnv(EnvBase):
                 for key in self._state_keys:
                     self._obs[key][i] = out[key].numpy()
             physics = time.perf_counter()
-            for worlds_of in (self._camera, self._color, self._background):  # the distractions over arrays
+            for worlds_of in (self._camera, self._color, self._background, self._lighting):  # the distractions over arrays
                 worlds_of.advance(worlds)
             self._place(chunk, worlds)
             self.seconds["physics"] += physics - start

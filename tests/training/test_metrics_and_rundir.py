@@ -99,6 +99,8 @@ def test_wandb_backend_is_torchrls_logger_and_resumes_the_same_run(tmp_path, mon
         ({"benchmark": "medium"}, "medium, static"),
         ({"camera_scale": 0.3}, "camera 0.3, static"),
         ({"color_scale": 0.2, "num_videos": 4, "dynamic": True}, "colour 0.2, 4 videos, dynamic"),
+        ({"light_scale": 0.5}, "light 0.5, static"),
+        ({"benchmark": "medium", "texture_scale": 0.3, "dynamic": True}, "medium, texture 0.3, dynamic"),
     ],
 )
 def test_learning_curve_title_names_the_training_scene(options, label):

@@ -4,7 +4,10 @@
     python -m dcs_torchrl.gallery --blends 0 0.1 0.2 0.5 1 --out blend.png
 
 Rows are the six tasks; columns are difficulty 0, 0.1, ..., 1: camera and colour scale
-in steps of 0.1, and 0, 1, 2, 4, ... background videos (doubling, capped at 60).
+in steps of 0.1, and 0, 1, 2, 4, ... background videos (doubling, capped at 60). Under them, a row
+per distraction beyond the paper (docs/lighting_textures.md), alone on one task
+(:data:`BEYOND_PAPER_ROWS`): the lighting at β_light and the surface textures at β_tex, each the
+column's β (no videos, camera and colour as the task's).
 
 With ``--blends``: cartpole swingup's view at each background blend β_bg (b = 60 videos,
 static), a row per seed as the paper describes the blend, and a row per seed as the 2021 code
@@ -23,6 +26,10 @@ from dcs_torchrl import presets
 from dcs_torchrl.envs import make_env
 
 SCALES = tuple(round(0.1 * i, 1) for i in range(11))
+#: The rows beyond the paper: (make_env setting set to the column's β, the row's name), on :data:`BEYOND_PAPER_TASK`.
+BEYOND_PAPER_ROWS = (("light_scale", "light only"), ("texture_scale", "texture only"))
+#: Their task: a floor to light and texture, and bodies that cast shadows on it.
+BEYOND_PAPER_TASK = ("walker", "walk")
 
 
 def num_videos(column: int) -> int:
@@ -37,6 +44,18 @@ def cell(domain: str, task: str, column: int, size: int, seed: int, background_d
         domain, task, camera_scale=scale, color_scale=scale, num_videos=num_videos(column),
         background_dir=background_dir, height=size, width=size, seed=seed,
     )
+    return _frame(env, seed, steps)
+
+
+def single_cell(domain: str, task: str, setting: str, column: int, size: int, seed: int, steps: int = 0) -> np.ndarray:
+    """One frame of ``domain``/``task`` with make_env's ``setting`` (e.g. ``light_scale``) at the β of
+    ``column`` and no other distraction (static); column 0 is :func:`cell`'s column 0."""
+    env = make_env(domain, task, num_videos=0, **{setting: SCALES[column]}, height=size, width=size, seed=seed)
+    return _frame(env, seed, steps)
+
+
+def _frame(env, seed: int, steps: int) -> np.ndarray:
+    """The frame of ``env`` after its reset and ``steps`` random actions drawn from ``seed``; closes ``env``."""
     td = env.reset()
     spec = env.action_spec
     actions = torch.Generator().manual_seed(seed)  # the random actions follow --seed too
@@ -62,14 +81,29 @@ def _name(words, height: int, width: int) -> np.ndarray:
     return cell_
 
 
-def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0) -> np.ndarray:
-    """The whole figure as an RGB uint8 image."""
-    rows = []
-    header = [_label(size, f"{SCALES[c]:.1f} / {num_videos(c)}") for c in range(len(SCALES))]
-    rows.append(np.concatenate([_label(96, "beta / videos")] + header, axis=1))
-    for domain, task in presets.TASKS:
-        frames = [cell(domain, task, c, size, seed, background_dir, steps) for c in range(len(SCALES))]
-        rows.append(np.concatenate([_name((domain, task), size, 96)] + frames, axis=1))
+def row_names(tasks=tuple(presets.TASKS)) -> list[tuple[str, ...]]:
+    """The words naming each row of :func:`gallery` under its header, top to bottom.
+
+    Examples:
+        >>> row_names([("cartpole", "swingup")])
+        [('cartpole', 'swingup'), ('walker walk', 'light only'), ('walker walk', 'texture only')]
+    """
+    beyond = " ".join(BEYOND_PAPER_TASK)
+    return [tuple(t) for t in tasks] + [(beyond, name) for _, name in BEYOND_PAPER_ROWS]
+
+
+def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0,
+            tasks=tuple(presets.TASKS)) -> np.ndarray:
+    """The whole figure as an RGB uint8 image: the header, a row per task of ``tasks`` (default: the
+    paper's six), then the rows beyond the paper (:data:`BEYOND_PAPER_ROWS`), named as :func:`row_names`."""
+    columns = range(len(SCALES))
+    header = [_label(size, f"{SCALES[c]:.1f} / {num_videos(c)}") for c in columns]
+    rows = [np.concatenate([_label(96, "beta / videos")] + header, axis=1)]
+    frames = [[cell(domain, task, c, size, seed, background_dir, steps) for c in columns] for domain, task in tasks]
+    frames += [[single_cell(*BEYOND_PAPER_TASK, setting, c, size, seed, steps) for c in columns]
+               for setting, _ in BEYOND_PAPER_ROWS]
+    for words, row in zip(row_names(tasks), frames):
+        rows.append(np.concatenate([_name(words, size, 96)] + row, axis=1))
     return np.concatenate(rows, axis=0)
 
 
@@ -100,7 +134,8 @@ def blend_figure(blends, size: int = 168, seeds=(0, 1), background_dir=None, epi
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description="Write the paper's Figure 1 for this suite.")
+    parser = argparse.ArgumentParser(description="Write the paper's Figure 1 for this suite, with a row each for "
+                                                 "lighting and textures (beyond the paper) under its tasks.")
     parser.add_argument("--out", default="gallery.png", help="PNG file to write (refuses to overwrite without --force)")
     parser.add_argument("--size", type=int, default=96, help="side of each frame in pixels")
     parser.add_argument("--seed", type=int, default=0)

@@ -5,12 +5,15 @@
         --intensities 0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1
 
 Each point sets one distraction alone over the agent's training env (camera β_cam, colour β_rgb,
-or background blend β_bg with b = 60 videos, the paper's experiment 1, Sec. 5.1), static or
+or background blend β_bg with b = 60 videos, the paper's experiment 1, Stone et al. 2021, Sec. 5.1;
+beyond the paper, lighting β_light and surface textures β_tex: docs/lighting_textures.md), static or
 dynamic, and runs the recipes' final evaluation there (:meth:`dcs_torchrl.pretrained.Pretrained.evaluate`:
 the deterministic policy, ``--episodes`` episodes in one env seeded as the training run's final
 evaluation). Points are spread over ``--workers`` processes, one point per process at a time, so
 every episode's return is the one a single-env evaluation gives. Intensity 0 is the same
-undistracted env on every axis and is evaluated once.
+undistracted env on every axis and is evaluated once. The texture axis is swept static only,
+whatever ``--setting``: a texture is drawn once an episode in either setting (``dynamic`` has no
+effect on it), so a dynamic texture curve would be the static one evaluated again.
 
 The output directory gets ``points/`` (one JSON file per evaluated point: what defines it,
 returns), ``robustness.csv`` (a row per point), ``robustness.md`` (the half-score intensity per
@@ -40,11 +43,14 @@ from pathlib import Path
 
 from dcs_torchrl.training.rundir import write_json_atomic
 
-__all__ = ["AXES", "Point", "sweep_points", "robustness_sweep", "sweep_agent", "write_outputs", "main"]
+__all__ = ["AXES", "STATIC_ONLY", "Point", "sweep_points", "robustness_sweep", "sweep_agent", "write_outputs", "main"]
 
 #: The command's axis names -> the sweep axes of results.json and the report
 #: (:data:`dcs_torchrl.report.experiments.SWEEP_AXES` says which make_env settings each sets).
-AXES = {"camera": "camera", "color": "color", "background": "background_blend"}
+AXES = {"camera": "camera", "color": "color", "background": "background_blend", "light": "light", "texture": "texture"}
+#: The axes swept static only whatever the setting: their distraction is drawn once an episode either way
+#: (:class:`dcs_torchrl.TextureDistraction`), so their dynamic points would repeat the static ones.
+STATIC_ONLY = frozenset({"texture"})
 QUICK_INTENSITIES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
 SETTINGS = {"static": (False,), "dynamic": (True,), "both": (False, True)}
 #: The renderers of ``--backend``, as the outputs name them: scores compare on one renderer only
@@ -64,6 +70,13 @@ class Point:
     value: float
     dynamic: bool
     reference_blend: bool = False
+
+    def __post_init__(self):
+        if self.axis not in AXES:
+            raise ValueError(f"unknown axis {self.axis!r}: choose among {list(AXES)}.")
+        if self.dynamic and self.axis in STATIC_ONLY:
+            raise ValueError(f"the {self.axis} axis is static only (its distraction is drawn once an episode "
+                             "whatever the setting): give dynamic=False.")
 
     def overrides(self, background_dir: str | None = None, num_videos: int = 60) -> dict:
         """The make_env settings of this point (none at intensity 0: the undistracted env);
@@ -94,13 +107,16 @@ class Point:
 def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float] = QUICK_INTENSITIES,
                  setting: str = "static", reference_blend: bool | str = False) -> list[Point]:
     """The points of a sweep, axis by axis (``reference_blend``: ``False``, ``True`` or ``"both"``,
-    for the background axis).
+    for the background axis). The axes of :data:`STATIC_ONLY` (texture) get static points only,
+    whatever ``setting``.
 
     Examples:
         >>> [(p.value, p.dynamic) for p in sweep_points(["camera"], [0.0, 0.5], "both")]
         [(0.0, False), (0.5, False), (0.0, True), (0.5, True)]
         >>> [p.sweep_axis for p in sweep_points(["background"], [0.5], reference_blend="both")]
         ['background_blend', 'background_blend_2021']
+        >>> [(p.axis, p.dynamic) for p in sweep_points(["light", "texture"], [0.5], "both")]
+        [('light', False), ('light', True), ('texture', False)]
     """
     unknown = sorted(set(axes) - set(AXES))
     if unknown:
@@ -116,7 +132,12 @@ def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float]
         raise ValueError(f"intensities {repeated} are given more than once: give each once.")
     blends = {False: (False,), True: (True,), "both": (False, True)}[reference_blend]
     return [Point(axis, value, dynamic, blend) for axis in axes for blend in (blends if axis == "background" else (False,))
-            for dynamic in SETTINGS[setting] for value in values]
+            for dynamic in _settings(axis, setting) for value in values]
+
+
+def _settings(axis: str, setting: str) -> tuple[bool, ...]:
+    """The ``dynamic`` values of ``axis``' points under ``setting`` (static only: :data:`STATIC_ONLY`)."""
+    return (False,) if axis in STATIC_ONLY else SETTINGS[setting]
 
 
 def _progress(items, enabled: bool, desc: str = "robustness"):
@@ -199,20 +220,36 @@ def _listing_sha256(folder: Path) -> str:
 
 
 def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
-    """Every resolved make_env setting of a point, and the videos it shows: the embedded stand-ins'
-    version (``embedded_videos``), or a folder's ``background_listing`` (:func:`_listing_sha256`,
-    computed once per folder in ``listings``). ``background_dir`` stays as the user gave it (a record
-    names no directory of this machine that the user did not write); the listing identifies the videos."""
+    """Every resolved make_env setting of a point, and the videos and textures it shows: the embedded
+    stand-in videos' version (``embedded_videos``), or a folder's ``background_listing``
+    (:func:`_listing_sha256`, computed once per folder in ``listings``); likewise the stand-in
+    textures' version (``standin_textures``) or a ``texture_dir``'s ``texture_listing``. The folders
+    stay as the user gave them (a record names no directory of this machine that the user did not
+    write); the listings identify their files. The settings of lighting and textures are there only where
+    their distraction is on (:meth:`dcs_torchrl.EnvSettings.as_dict`), so the points of the other axes
+    keep the identity they had before lighting and textures existed."""
     from dcs_torchrl.pretrained import agent_env_settings
     from dcs_torchrl.results import shows_videos, with_videos_version
 
     env = with_videos_version(agent_env_settings(config, overrides).as_dict())
     if shows_videos(env) and env["background_dir"]:
-        folder = os.fspath(Path(env["background_dir"]).expanduser().resolve())
-        if folder not in listings:
-            listings[folder] = _listing_sha256(Path(folder))
-        env |= {"background_listing": listings[folder]}
+        env |= {"background_listing": _listing(env["background_dir"], listings)}
+    if env.get("texture_scale", 0.0) > 0:
+        if env.get("texture_dir"):
+            env |= {"texture_listing": _listing(env["texture_dir"], listings)}
+        else:
+            from dcs_torchrl.textures import STANDIN_VERSION
+
+            env |= {"standin_textures": STANDIN_VERSION}
     return env
+
+
+def _listing(directory: str, listings: dict[str, str]) -> str:
+    """:func:`_listing_sha256` of ``directory`` (as given: ``~`` or relative), once per folder in ``listings``."""
+    folder = os.fspath(Path(directory).expanduser().resolve())
+    if folder not in listings:
+        listings[folder] = _listing_sha256(Path(folder))
+    return listings[folder]
 
 
 def _point_identities(agent: dict, results: dict, settings: dict[str, dict], episodes: int,
@@ -234,13 +271,14 @@ def _point_identities(agent: dict, results: dict, settings: dict[str, dict], epi
 def _point_id(record: dict) -> str:
     """The SHA-256 of what defines a point (:data:`IDENTITY`), read from a record or an identity.
 
-    A folder of videos counts by its ``background_listing`` (its files' names and sizes), not by the
-    path it was given as: the same folder by another path (relative, ``~``, absolute) is the same point,
-    in records written before paths were kept as given too."""
+    A folder of videos (of textures) counts by its ``background_listing`` (``texture_listing``: its
+    files' names and sizes), not by the path it was given as: the same folder by another path (relative,
+    ``~``, absolute) is the same point, in records written before paths were kept as given too."""
     identity = {k: record.get(k) for k in IDENTITY}
     env = identity.get("env")
-    if isinstance(env, dict) and env.get("background_listing"):
-        identity["env"] = {k: v for k, v in env.items() if k != "background_dir"}
+    if isinstance(env, dict):
+        listed = {"background_dir": "background_listing", "texture_dir": "texture_listing"}
+        identity["env"] = {k: v for k, v in env.items() if not env.get(listed.get(k, ""))}
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
@@ -358,7 +396,8 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
     rows of two renderers are refused (compare scores on one renderer only)."""
     import pandas as pd
 
-    from dcs_torchrl.report.curves import BLEND_2021, blend_suffix, half_text, half_score_table
+    from dcs_torchrl.report.curves import (BLEND_2021, beyond_paper_note, blend_suffix, half_score_table, half_text,
+                                           paper_text)
     from dcs_torchrl.report.figures import curves_figure
     from dcs_torchrl.report.markdown import fmt_score, md_table
     from dcs_torchrl.report.tables import setting_name
@@ -383,19 +422,24 @@ def write_outputs(rows: Sequence[dict], out: str | os.PathLike, title: str = "",
     half = half_score_table(curves)
     named = {report_axis: axis for axis, report_axis in AXES.items()}  # the command's names, as the CSV's and below
     half_rows = [[named[r.axis] + blend_suffix(r.blend), setting_name(r.dynamic), fmt_score(r.score_at_0),
-                  half_text(r), r.paper or "—"] for r in half.itertuples()]
+                  half_text(r), paper_text(r.axis, r.paper)] for r in half.itertuples()]
     point_rows = [[r["axis"] + (" (2021 blend)" if r["reference_blend"] else ""), r["setting"], f"{r['value']:g}",
                    fmt_score(r["mean"], r["stderr"]), str(r["episodes"])] for r in rows]
+    swept = [axis for axis in AXES if any(r["axis"] == axis for r in rows)]
+    notes = [beyond_paper_note(AXES[axis] for axis in swept)]
+    notes += [f"`{axis}` is swept static only: its distraction is drawn once an episode in either setting."
+              for axis in swept if axis in STATIC_ONLY]
     text = [f"# Robustness of {_joined(title or method, renderer)}", "",
             "## Where the score falls to half", "",
             md_table(["axis", "setting", "score at 0", "half at", "paper (top methods)"], half_rows), "",
             "`half at`: the first intensity whose mean return is at most half the return at 0; "
-            "`> x`: not within the sweep (up to x). The paper's values are over six tasks and 100 episodes.", "",
+            "`> x`: not within the sweep (up to x). The paper's values are over six tasks and 100 episodes."
+            + "".join(f" {note}" for note in notes if note), "",
             "## Every point (mean ± s.e. over episodes)", "",
             md_table(["axis", "setting", "intensity", "return", "episodes"], point_rows), ""]
     paths["md"].write_text("\n".join(text))
     curves_figure(curves, "robustness", paths["png"], note=_joined(title, renderer), spread="mean ± s.e. over episodes",
-                  axes_shown=[AXES[axis] for axis in AXES if any(r["axis"] == axis for r in rows)], num_videos=num_videos)
+                  axes_shown=[AXES[axis] for axis in swept], num_videos=num_videos)
     return paths
 
 
@@ -427,13 +471,15 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("agent", help="a shipped agent's name (e.g. sac_rad_cartpole_swingup), an exported agent "
                                       "or a finished training run directory")
     parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES),
-                        help=f"the distractions swept, each alone (default: {' '.join(AXES)})")
+                        help="the distractions swept, each alone: camera, color and background as the paper's "
+                             "experiment 1; light and texture beyond the paper (texture static only, whatever "
+                             f"--setting: a texture is drawn once an episode either way) (default: {' '.join(AXES)})")
     parser.add_argument("--intensities", nargs="+", type=float, default=list(QUICK_INTENSITIES), metavar="BETA",
                         help="the intensities of each axis, in [0, 1] "
                              f"(default: {' '.join(f'{v:g}' for v in QUICK_INTENSITIES)})")
     parser.add_argument("--setting", default="static", choices=list(SETTINGS),
                         help="distractions drawn once an episode (static), changing every step (dynamic), or a "
-                             "curve of each (default: %(default)s)")
+                             "curve of each; the texture axis is static in all three (default: %(default)s)")
     parser.add_argument("--episodes", type=int, default=10,
                         help="episodes per point (the paper: 100; default: %(default)s)")
     parser.add_argument("--reference-blend", nargs="?", const="on", default="off", choices=["off", "on", "both"],

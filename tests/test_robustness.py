@@ -1,6 +1,7 @@
 """python -m dcs_torchrl.robustness: the shipped agent's curves, in worker processes, resumable."""
 import csv
 import json
+import re
 
 import pytest
 
@@ -357,7 +358,8 @@ def test_help_names_every_default():
     options = [a for a in parser._actions if a.option_strings and a.dest != "help"]
     assert options and [a.dest for a in options if "default: " not in a.help] == []
     text = " ".join(parser.format_help().split())
-    for shown in ("(default: camera color background)", "(default: 0 0.2 0.4 0.6 0.8 1)", "(the paper: 100; default: 10)",
+    for shown in ("(default: camera color background light texture)", "(default: 0 0.2 0.4 0.6 0.8 1)",
+                  "(the paper: 100; default: 10)", "texture static only, whatever --setting",
                   "(default: static)", "(default: gl)", "(default: off)"):
         assert shown in text
 
@@ -421,3 +423,131 @@ def test_an_evaluation_process_spawned_on_another_device_than_its_own_refuses_to
     monkeypatch.setenv("MUJOCO_EGL_DEVICE_ID", "0")
     with pytest.raises(RuntimeError, match="must be spawned with MUJOCO_EGL_DEVICE_ID=3"):
         _start_worker(AGENT, "cpu", False, 3)
+
+
+# ------------------------------------------------- the axes beyond the paper: light and texture
+#: Each new axis' make_env setting, written out here (not read from the package) so that a wrong mapping shows.
+BEYOND = {"light": "light_scale", "texture": "texture_scale"}
+
+
+def test_light_and_texture_points_set_only_their_own_setting():
+    """Every point of each new axis sets its setting alone (texture: static only, whatever the setting);
+    intensity 0 is the one undistracted env of all five axes."""
+    from dcs_torchrl.report.experiments import SWEEP_AXES
+
+    for setting in ("static", "dynamic", "both"):
+        points = sweep_points(list(BEYOND), [0.0, 0.5, 1.0], setting)
+        for axis, key in BEYOND.items():
+            mine = [p for p in points if p.axis == axis]
+            dynamics = (False,) if axis == "texture" else {"static": (False,), "dynamic": (True,),
+                                                           "both": (False, True)}[setting]
+            assert [(p.value, p.dynamic) for p in mine] == [(v, d) for d in dynamics for v in (0.0, 0.5, 1.0)]
+            for p in mine:
+                assert p.sweep_axis == axis and not p.reference_blend
+                assert p.overrides() == ({} if p.value == 0 else {key: p.value, "dynamic": p.dynamic}), p
+            assert (SWEEP_AXES[axis].key, SWEEP_AXES[axis].kind) == (key, float)
+    everything = sweep_points(["camera", "color", "background", "light", "texture"], [0.0], "both", "both")
+    assert {p.axis for p in everything} == {"camera", "color", "background", "light", "texture"}
+    assert {p.key() for p in everything} == {"{}"}
+    assert sweep_points(reference_blend=False) == sweep_points(["camera", "color", "background", "light", "texture"])
+    with pytest.raises(ValueError, match="texture axis is static only"):
+        Point("texture", 0.5, True)
+
+
+def test_an_unknown_axis_is_refused_naming_the_choices(capsys):
+    choices = ["camera", "color", "background", "light", "texture"]
+    for bad in (["lighting"], ["light", "textures"]):
+        with pytest.raises(ValueError, match=re.escape(f"choose among {choices}")):
+            sweep_points(bad)
+    with pytest.raises(ValueError, match=re.escape(f"unknown axis 'lights': choose among {choices}")):
+        Point("lights", 0.5, False)
+    with pytest.raises(SystemExit):
+        main([AGENT, "--axes", "light", "lighting", "--out", "unused"])
+    err = capsys.readouterr().err
+    assert "'lighting'" in err and all(f"'{axis}'" in err for axis in choices)
+
+
+def test_the_command_sweeps_light_and_texture_and_names_them(tmp_path, capsys, short_agent):
+    """--axes light texture --setting both: light static and dynamic, texture static only; every output
+    names the axes as the command does, claims no half-score point of the paper for them, and each
+    evaluated point sets only its axis' setting (intensity 0: none, one env for both axes)."""
+    from dcs_torchrl.textures import STANDIN_VERSION
+
+    out = tmp_path / "out"
+    paths = main([str(short_agent), "--axes", "light", "texture", "--intensities", "0", "1", "--setting", "both",
+                  "--episodes", "1", "--workers", "1", "--out", str(out), "--no-progress"])
+    with open(paths["csv"]) as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["axis"], r["setting"], r["value"]) for r in rows] == [
+        ("light", "static", "0.0"), ("light", "static", "1.0"),
+        ("light", "dynamic", "0.0"), ("light", "dynamic", "1.0"),
+        ("texture", "static", "0.0"), ("texture", "static", "1.0")]
+    assert len({r["mean"] for r in rows if r["value"] == "0.0"}) == 1  # one undistracted env
+    text = paths["md"].read_text()
+    half, points = text.split("## ")[1:]
+    for section, wanted in ((half, ["light", "texture"]), (points, ["light", "texture"])):
+        table = [line.split("|") for line in section.splitlines() if line.startswith("|")][2:]
+        assert sorted({row[1].strip() for row in table}) == wanted
+    for row in [line.split("|") for line in half.splitlines() if line.startswith("|")][2:]:
+        assert row[-2].strip() == "beyond the paper"  # the paper's 0.2 / 0.6 / < 0.1 are its own axes'
+    assert "`light` and `texture`: beyond the paper" in text and "`texture` is swept static only" in text
+    assert "Where the score falls to half" in capsys.readouterr().out
+    assert paths["png"].stat().st_size > 10_000
+    records = [json.loads(p.read_text()) for p in (out / "points").iterdir()]
+    assert sorted(json.dumps(r["overrides"], sort_keys=True) for r in records) == sorted([
+        "{}", '{"dynamic": false, "light_scale": 1.0}', '{"dynamic": true, "light_scale": 1.0}',
+        '{"dynamic": false, "texture_scale": 1.0}'])
+    for record in records:  # what defines each: its own setting, and the textures it shows
+        env = record["env"]
+        assert env.get("light_scale") == record["overrides"].get("light_scale")
+        assert env.get("texture_scale") == record["overrides"].get("texture_scale")
+        textured = "texture_scale" in record["overrides"]
+        assert (env.get("standin_textures"), "texture_split" in env) == ((STANDIN_VERSION, True) if textured
+                                                                          else (None, False))
+
+
+def test_points_on_other_stand_in_textures_are_evaluated_again(tmp_path, evaluated, monkeypatch):
+    """A texture point is stored with the stand-in textures' version; the other axes' points (intensity 0
+    too) show no texture and keep the identity they had before lighting and textures existed."""
+    points = [Point("texture", 0.5, False), Point("light", 0.5, False), Point("camera", 0.5, False),
+              Point("texture", 0.0, False)]
+    with monkeypatch.context() as older:
+        older.setattr("dcs_torchrl.textures.STANDIN_VERSION", 0)
+        sweep(tmp_path, points)
+    sweep(tmp_path, points)
+    assert [(o.get("texture_scale"), o.get("light_scale")) for o in evaluated] == [
+        (0.5, None), (None, 0.5), (None, None), (None, None), (0.5, None)]
+    for record in (json.loads(p.read_text()) for p in (tmp_path / "points").iterdir()):
+        if "light_scale" not in record["overrides"] and "texture_scale" not in record["overrides"]:
+            assert not {"light_scale", "texture_scale", "texture_dir", "texture_split"} & set(record["env"])
+
+
+def test_texture_points_on_another_texture_folder_are_evaluated_again(tmp_path, evaluated, monkeypatch):
+    """An agent whose env takes its textures from a folder: a texture point counts that folder by its
+    files (another path to it: the same point; another image in it: evaluated again)."""
+    import shutil
+
+    import cv2
+    import numpy as np
+
+    folder = tmp_path / "textures"
+    folder.mkdir()
+    for i in range(2):
+        cv2.imwrite(str(folder / f"t{i}.png"), np.full((8, 8, 3), 60 * i, np.uint8))
+    agent = shutil.copytree(shipped_agents()[AGENT], tmp_path / "agent")
+    results = json.loads((agent / "results.json").read_text())
+    results["config"]["env"]["texture_dir"] = str(folder)
+    (agent / "results.json").write_text(json.dumps(results))
+    points = [Point("texture", 0.5, False), Point("light", 0.5, False)]
+    sweep(tmp_path / "out", points, agent=agent)
+    monkeypatch.chdir(tmp_path)
+    results["config"]["env"]["texture_dir"] = "textures"  # the same folder by another path: reused
+    (agent / "results.json").write_text(json.dumps(results))
+    sweep(tmp_path / "out", points, agent=agent)
+    assert len(evaluated) == 2
+    cv2.imwrite(str(folder / "t2.png"), np.zeros((8, 8, 3), np.uint8))
+    sweep(tmp_path / "out", points, agent=agent)
+    assert [(o.get("texture_scale"), o.get("light_scale")) for o in evaluated] == [
+        (0.5, None), (None, 0.5), (0.5, None)]
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out" / "points").iterdir()]
+    assert sorted(r["env"].get("texture_dir") or "" for r in records) == ["", str(folder), "textures"]

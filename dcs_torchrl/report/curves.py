@@ -5,7 +5,9 @@ of one method at one intensity in one setting; with several tasks, each task's o
 too (column ``task``: :data:`ALL_TASKS` for the mean, else ``<domain>-<task>``). The half-score
 table gives the first intensity at which a method's score is at most half its score at
 intensity 0, beside the paper's statements ("top methods lose half their score at β_cam = 0.2,
-β_rgb = 0.6, β_bg < 0.1").
+β_rgb = 0.6, β_bg < 0.1"). The sweeps beyond the paper (lighting β_light, textures β_tex:
+:data:`~dcs_torchrl.report.experiments.BEYOND_PAPER`) come after the paper's panels where the runs hold
+them, and their rows say "beyond the paper" where the paper's statement would be.
 """
 from __future__ import annotations
 
@@ -13,15 +15,16 @@ import math
 
 import pandas as pd
 
-from dcs_torchrl.report.experiments import EXPERIMENTS, METHODS, Panel
+from dcs_torchrl.report.experiments import BEYOND_PAPER_AXES, METHODS, Panel, experiment_panels
 from dcs_torchrl.report.markdown import MISSING, fmt_score, fmt_value, md_table, seed_counts
 from dcs_torchrl.report.paper import paper_notes
 from dcs_torchrl.report.select import select, tasks_of
 from dcs_torchrl.report.stats import task_mean
 from dcs_torchrl.report.tables import setting_name
 
-__all__ = ["ALL_TASKS", "BLEND_2021", "CURVE_COLUMNS", "blend_suffix", "curve_table", "curve_tasks", "half_score_table",
-           "half_score_markdown", "curves_markdown", "with_defaults"]
+__all__ = ["ALL_TASKS", "BEYOND_PAPER_TEXT", "BLEND_2021", "CURVE_COLUMNS", "beyond_paper_note", "blend_suffix",
+           "curve_table", "curve_tasks", "half_score_table", "half_score_markdown", "curves_markdown", "paper_text",
+           "with_defaults"]
 
 CURVE_COLUMNS = ("experiment", "axis", "eval_split", "dynamic", "method", "value", "mean", "stderr", "n", "n_tasks",
                  "blend", "task")
@@ -33,6 +36,30 @@ ALL_TASKS = "mean"
 #: The ``blend`` of a curve whose background blend accumulates over episodes as in the 2021 code
 #: (``reference_blend``); curves without a ``blend`` column, or with ``"paper"``, blend as the paper says.
 BLEND_2021 = "2021 code"
+
+
+#: What a half-score row of an axis beyond the paper (lighting, textures) shows where the paper's statement would be.
+BEYOND_PAPER_TEXT = "beyond the paper"
+
+
+def paper_text(axis: str, paper: str, missing: str = MISSING) -> str:
+    """The paper column of a half-score row: the paper's statement, :data:`BEYOND_PAPER_TEXT` for an
+    axis beyond the paper, else ``missing``.
+
+    Examples:
+        >>> paper_text("camera", "0.2"), paper_text("light", ""), paper_text("num_videos", "")
+        ('0.2', 'beyond the paper', '—')
+    """
+    return paper or (BEYOND_PAPER_TEXT if axis in BEYOND_PAPER_AXES else missing)
+
+
+def beyond_paper_note(axes) -> str:
+    """A sentence saying which of ``axes`` are beyond the paper (empty where none is)."""
+    beyond = [a for a in dict.fromkeys(axes) if a in BEYOND_PAPER_AXES]
+    if not beyond:
+        return ""
+    return (f"{' and '.join(f'`{a}`' for a in beyond)}: beyond the paper (docs/lighting_textures.md), "
+            "which states no half-score point for {}.".format("it" if len(beyond) == 1 else "them"))
 
 
 def blend_suffix(blend: str = "paper") -> str:
@@ -90,7 +117,7 @@ def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
     tasks = tasks_of(select(runs, experiment=experiment))
     variants = [(ALL_TASKS, tasks)] + ([(f"{d}-{t}", [(d, t)]) for d, t in tasks] if len(tasks) > 1 else [])
     records = []
-    for panel in EXPERIMENTS[experiment]:
+    for panel in experiment_panels(experiment, set(select(runs, experiment=experiment)["axis"])):
         for axis, blend in ((panel.axis, "paper"), (panel.blend_axis, BLEND_2021)):
             if axis is None:
                 continue
@@ -111,6 +138,8 @@ def curve_table(runs: pd.DataFrame, experiment: str) -> pd.DataFrame:
 
 
 def _paper_half(experiment: str, axis: str) -> str:
+    if axis in BEYOND_PAPER_AXES:  # the paper's statements are about its own sweeps only
+        return ""
     for note in paper_notes()["half_score"]:
         if note["experiment"] == experiment and note["axis"] == axis:
             return ("" if note["relation"] == "=" else note["relation"] + " ") + fmt_value(note["value"])
@@ -158,7 +187,7 @@ def curves_markdown(curves: pd.DataFrame, experiment: str) -> str:
     each = (" Rows marked `— <task>` are that task alone." if len(curve_tasks(curves)) > 1 else "")
     parts += [f"Mean over {n_tasks} tasks (per seed, then mean ± s.e. over seeds); `(n=k)` marks a seed "
               "count other than 5." + (f" {note}" if note else "") + each, ""]
-    for panel in EXPERIMENTS[experiment]:
+    for panel in experiment_panels(experiment, set(curves["axis"])):
         mine = curves[(curves.axis == panel.axis) & (curves.eval_split == panel.eval_split)]
         parts += [f"## {panel.title} — {panel.text_xlabel}", ""]
         if mine.empty:
@@ -197,10 +226,11 @@ def half_score_markdown(half: pd.DataFrame) -> str:
         by_method = {r.method: half_text(r) for r in g.itertuples()}
         label = axis + ("" if split == "train" else " (unseen videos)") + blend_suffix(blend)
         rows.append([label, setting_name(dynamic)] + ([task] if per_task else [])
-                    + [by_method.get(m, MISSING) for m in METHODS] + [g["paper"].iloc[0] or MISSING])
+                    + [by_method.get(m, MISSING) for m in METHODS] + [paper_text(axis, g["paper"].iloc[0])])
     header = ["Axis", "Setting"] + (["Task"] if per_task else []) + [*METHODS, "Paper (top methods)"]
     table = md_table(header, rows, "ll" + "l" * per_task + "r" * (len(METHODS) + 1))
-    return table + ("\n\nThe first intensity whose mean score over tasks (task `mean`; else that task's score) "
-                    "is at most half the score at 0; `> x`: not within the sweep (up to x)."
-                    if per_task else "\n\nThe first intensity whose mean score over tasks is at most half the "
-                    "score at 0; `> x`: not within the sweep (up to x).")
+    beyond = beyond_paper_note(half["axis"])
+    note = ("The first intensity whose mean score over tasks (task `mean`; else that task's score) is at most half "
+            "the score at 0; `> x`: not within the sweep (up to x)." if per_task else "The first intensity whose mean "
+            "score over tasks is at most half the score at 0; `> x`: not within the sweep (up to x).")
+    return f"{table}\n\n{note}" + (f" {beyond}" if beyond else "")

@@ -1,7 +1,9 @@
 """The paper's experiments as data: methods, tasks, sweep axes and the grid each one covers.
 
 Stone et al. 2021, Secs. 4-5 (docs/paper.md). The report compares what a results directory holds against these grids to say
-which cells are missing; values found in the results but not listed here are reported too.
+which cells are missing; values found in the results but not listed here are reported too. The sweeps of the
+distractions beyond the paper (lighting and surface textures, docs/lighting_textures.md) are panels of their
+own (:data:`BEYOND_PAPER`): the report draws them where the results hold them, and expects none.
 """
 from __future__ import annotations
 
@@ -22,6 +24,9 @@ __all__ = [
     "SEEDS",
     "Panel",
     "EXPERIMENTS",
+    "BEYOND_PAPER",
+    "BEYOND_PAPER_AXES",
+    "experiment_panels",
     "BENCHMARK_ORDER",
     "INTERACTION_DIFFICULTIES",
     "single_distraction_settings",
@@ -73,6 +78,9 @@ SWEEP_AXES: MappingProxyType[str, SweepAxis] = MappingProxyType({
     # the same with the 2021 code's blend, which accumulates over an env's episodes (reference_blend)
     "background_blend_2021": SweepAxis("background_blend", float, {"num_videos": 60, "reference_blend": True}),
     "num_videos": SweepAxis("num_videos", int, {"background_blend": 1.0}),
+    # beyond the paper (docs/lighting_textures.md): β_light and β_tex, each alone
+    "light": SweepAxis("light_scale", float),
+    "texture": SweepAxis("texture_scale", float),
 })
 
 # Sweep axes of results.json (`sweep.axis`) and the type of their `value`.
@@ -97,6 +105,8 @@ class Panel:
         eval_split: ``train`` or ``val`` (unseen background videos, the paper's Sec. 5.2).
         blend_axis: the axis of the same sweep with the 2021 code's background blend, drawn in
             the same panel (optional: not part of the expected grid).
+        beyond_paper: a sweep the paper does not run (:data:`BEYOND_PAPER`): no paper value is
+            stated for it.
     """
 
     axis: str
@@ -105,6 +115,7 @@ class Panel:
     xlabel: str
     eval_split: str = "train"
     blend_axis: str | None = None
+    beyond_paper: bool = False
 
     @property
     def text_xlabel(self) -> str:
@@ -137,6 +148,32 @@ EXPERIMENTS: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType(
         "benchmarks": (Panel("benchmark", BENCHMARK_ORDER, "Benchmarks", "benchmark"),),
     }
 )
+
+# The same experiments' sweeps of the distractions beyond the paper (docs/lighting_textures.md): not in
+# the paper's grids (EXPERIMENTS), so never reported missing; drawn after the paper's panels where the
+# results hold them (experiment_panels). A texture is drawn once an episode whatever the setting, so
+# its dynamic setting is its static one: the robustness command sweeps it static only.
+_BEYOND = (
+    Panel("light", _INTENSITIES, "Lighting (beyond the paper)", "light scale $\\beta_{light}$", beyond_paper=True),
+    Panel("texture", _INTENSITIES, "Texture (beyond the paper)", "texture scale $\\beta_{tex}$ (drawn per episode)",
+          beyond_paper=True),
+)
+BEYOND_PAPER: MappingProxyType[str, tuple[Panel, ...]] = MappingProxyType({"robustness": _BEYOND, "training": _BEYOND})
+BEYOND_PAPER_AXES: frozenset[str] = frozenset(p.axis for panels in BEYOND_PAPER.values() for p in panels)
+
+
+def experiment_panels(experiment: str, axes_found=()) -> tuple[Panel, ...]:
+    """The panels of ``experiment``: the paper's (:data:`EXPERIMENTS`), then those beyond it
+    (:data:`BEYOND_PAPER`) whose axis is among ``axes_found`` (the axes the results hold).
+
+    Examples:
+        >>> [p.axis for p in experiment_panels("robustness", {"camera", "light"})]
+        ['camera', 'color', 'background_blend', 'light']
+        >>> experiment_panels("robustness", {"texture"})[-1].text_xlabel
+        'texture scale β_tex (drawn per episode)'
+    """
+    found = set(axes_found)
+    return EXPERIMENTS[experiment] + tuple(p for p in BEYOND_PAPER.get(experiment, ()) if p.axis in found)
 
 # The difficulties of the interactions table (the paper's Table 5) and the benchmark they decompose.
 INTERACTION_DIFFICULTIES: tuple[str, ...] = ("easy", "medium")

@@ -1,8 +1,9 @@
 """Figures (matplotlib's Agg canvas, no pyplot state, PNG): score vs intensity curves and benchmark bars.
 
-- :func:`curves_figure`: one panel per sweep of the experiment (the paper's Figs. 4-5); x the
-  intensity, y the mean score over tasks; one colour per method, static solid, dynamic dashed,
-  shaded ± s.e.; with several tasks, a row of panels per task under the mean's.
+- :func:`curves_figure`: one panel per sweep of the experiment (the paper's Figs. 4-5, then any sweep
+  beyond the paper the curves hold: lighting β_light, textures β_tex); x the intensity, y the mean
+  score over tasks; one colour per method, static solid, dynamic dashed, shaded ± s.e.; with several
+  tasks, a row of panels per task under the mean's.
 - :func:`benchmark_figure`: per benchmark (none / easy / medium / blind) one bar per method with
   its s.e.; a black star at the expected score if the degradations were independent (no-
   distraction score × product of the single-distraction relative scores, the paper's Figs. 6-7);
@@ -26,7 +27,7 @@ from matplotlib.patches import Patch
 
 from dcs_torchrl.methods import METHODS as REGISTRY
 from dcs_torchrl.report.curves import ALL_TASKS, BLEND_2021, curve_tasks, with_defaults
-from dcs_torchrl.report.experiments import BENCHMARK_ORDER, EXPERIMENTS, METHODS, TASK_ORDER
+from dcs_torchrl.report.experiments import BENCHMARK_ORDER, METHODS, TASK_ORDER, experiment_panels
 from dcs_torchrl.report.markdown import fmt_value
 from dcs_torchrl.report.paper import MEAN_DOMAIN
 from dcs_torchrl.report.tables import is_paper_task_set, setting_name, task_columns, tasks_text
@@ -62,11 +63,14 @@ def curves_figure(curves: pd.DataFrame, experiment: str, path: str | Path, note:
         path: the PNG to write.
         note: a line under the title (e.g. that the backgrounds are stand-in videos).
         spread: what the line and its band are, in the title.
-        axes_shown: only the panels of these axes (default: every panel of the experiment).
+        axes_shown: only the panels of these axes (default: every panel of the paper's experiment,
+            then those beyond the paper that ``curves`` holds: lighting, textures).
         num_videos: the b of the background-blend panels' label (the paper's: 60).
     """
-    panels = [p for p in EXPERIMENTS[experiment] if axes_shown is None or p.axis in axes_shown]
     curves = with_defaults(curves)
+    found = set(curves["axis"]) if "axis" in curves else set()
+    panels = [p for p in experiment_panels(experiment, found | set(axes_shown or ()))
+              if axes_shown is None or p.axis in axes_shown]
     tasks = curve_tasks(curves) if len(curves) else [ALL_TASKS]
     # room for the legend under one panel; the title and legend take the same height whatever the rows
     fig = Figure(figsize=(4.2 * max(len(panels), 2), 1.0 + 3.0 * len(tasks)))

@@ -2,12 +2,17 @@
 
     python -m dcs_torchrl.gallery --out gallery.png [--size 96] [--seed 0] [--background-dir DIR]
     python -m dcs_torchrl.gallery --blends 0 0.1 0.2 0.5 1 --out blend.png
+    python -m dcs_torchrl.gallery --beyond --out lighting_textures.png
 
 Rows are the six tasks; columns are difficulty 0, 0.1, ..., 1: camera and colour scale
 in steps of 0.1, and 0, 1, 2, 4, ... background videos (doubling, capped at 60). Under them, a row
 per distraction beyond the paper (docs/lighting_textures.md), alone on one task
 (:data:`BEYOND_PAPER_ROWS`): the lighting at β_light and the surface textures at β_tex, each the
 column's β (no videos, camera and colour as the task's).
+
+With ``--beyond``: the figures of docs/lighting_textures.md: what each of the lighting's five numbers does at
+either end of its range (β_light = 1, the others at rest), the surface textures at β_tex 0 to 1, and the
+stand-in textures (training, then held out).
 
 With ``--blends``: cartpole swingup's view at each background blend β_bg (b = 60 videos,
 static), a row per seed as the paper describes the blend, and a row per seed as the 2021 code
@@ -107,6 +112,68 @@ def gallery(size: int = 96, seed: int = 0, background_dir=None, steps: int = 0,
     return np.concatenate(rows, axis=0)
 
 
+#: The tasks of the figure beyond the paper: a rail and a pole over the floor, bodies that shadow it, a top view.
+BEYOND_TASKS = (("cartpole", "swingup"), ("walker", "walk"), ("finger", "spin"))
+TEXTURE_SCALES = (0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+def lighting_extreme(domain: str, task: str, number: int | None, end: float, size: int, seed: int) -> np.ndarray:
+    """The first frame of ``domain``/``task`` with the lighting's number ``number`` (an index of
+    :data:`dcs_torchrl.distractions.lighting.AXES`; ``None``: none) at ``end`` (-1 or 1) of its range at
+    β_light = 1, the other four at rest."""
+    from dcs_torchrl.distractions.lighting import LightingDistraction
+
+    env = make_env(domain, task, light_scale=1.0, height=size, width=size, seed=seed)
+    env.reset()
+    lighting = next(t for t in env.transform if isinstance(t, LightingDistraction))
+    u = np.zeros(5)
+    if number is not None:
+        u[number] = end
+    lighting.hold(u)
+    frame = env.transform[-2]._render().numpy()  # RenderPixels, before the state keys are dropped
+    env.close()
+    return frame
+
+
+def beyond_figure(size: int = 96, seed: int = 0) -> np.ndarray:
+    """docs/lighting_textures.md's figure: per task of :data:`BEYOND_TASKS`, the lighting at either end of each
+    number (:func:`lighting_extreme`), then the textures at each of :data:`TEXTURE_SCALES` (one draw per
+    row: its seed)."""
+    from dcs_torchrl.distractions.lighting import AXES
+
+    ends = [(None, 0.0)] + [(i, e) for i in range(len(AXES)) for e in (-1.0, 1.0)]
+    header = [_label(size, "task's" if i is None else f"{AXES[i][:6]} {e:+g}") for i, e in ends]
+    rows = [np.concatenate([_label(96, "light, beta 1")] + header, axis=1)]
+    for domain, task in BEYOND_TASKS:
+        frames = [lighting_extreme(domain, task, i, e, size, seed) for i, e in ends]
+        rows.append(np.concatenate([_name((domain, task), size, 96)] + frames, axis=1))
+    width = rows[0].shape[1]
+    header = [_label(size, f"beta_tex {b:g}") for b in TEXTURE_SCALES]
+    block = [np.concatenate([_label(96, "textures")] + header, axis=1)]
+    for k, (domain, task) in enumerate(BEYOND_TASKS):
+        frames = []
+        for b in TEXTURE_SCALES:
+            env = make_env(domain, task, texture_scale=b, height=size, width=size, seed=seed + k)
+            frames.append(_frame(env, seed + k, 0))
+        block.append(np.concatenate([_name((domain, task), size, 96)] + frames, axis=1))
+    block = np.concatenate(block, axis=0)
+    pad = np.full((block.shape[0], width - block.shape[1], 3), 255, np.uint8)
+    return np.concatenate(rows + [np.concatenate([block, pad], axis=1)], axis=0)
+
+
+def standin_sheet(size: int = 96) -> np.ndarray:
+    """The stand-in textures, the training split's in rows of 10, then the held-out ones."""
+    from dcs_torchrl.textures import texture_set
+
+    train, val = texture_set(None, "train"), texture_set(None, "val")
+    cells = [train.image(i, size) for i in range(len(train))]
+    rows = [np.concatenate([_name(("train",), size, 60)] + cells[i:i + 10], axis=1) for i in range(0, len(cells), 10)]
+    held = [val.image(i, size) for i in range(len(val))]
+    held += [np.full((size, size, 3), 255, np.uint8)] * (10 - len(held))
+    rows.append(np.concatenate([_name(("val",), size, 60)] + held, axis=1))
+    return np.concatenate(rows, axis=0)
+
+
 def blend_view(blend: float, size: int, seed: int, background_dir=None, reference_blend: bool = False,
                episodes: int = 0, domain: str = "cartpole", task: str = "swingup") -> np.ndarray:
     """The first frame of an episode at background blend ``blend`` (b = 60, static), after
@@ -145,10 +212,21 @@ def main(argv=None) -> None:
     parser.add_argument("--blends", nargs="+", type=float, default=None, metavar="BETA",
                         help="instead: cartpole's view at these background blends, the paper's and the 2021 code's")
     parser.add_argument("--episodes", type=int, default=20, help="with --blends: earlier episodes of the 2021 code's env")
+    parser.add_argument("--beyond", action="store_true",
+                        help="instead: the lighting's ranges and the textures (docs/lighting_textures.md); writes --out "
+                             "and, beside it, <out>_standins.png, the stand-in textures")
     args = parser.parse_args(argv)
     if os.path.exists(args.out) and not args.force:
         parser.error(f"{args.out} exists; pass --force to overwrite it or choose another --out")
-    if args.blends is not None:
+    if args.beyond:
+        sheet = os.path.splitext(args.out)[0] + "_standins.png"
+        if os.path.exists(sheet) and not args.force:
+            parser.error(f"{sheet} exists; pass --force to overwrite it or choose another --out")
+        if not cv2.imwrite(sheet, standin_sheet(args.size)[..., ::-1]):
+            parser.error(f"could not write {sheet}")
+        print(f"wrote {sheet}")
+        image = beyond_figure(args.size, args.seed)
+    elif args.blends is not None:
         image = blend_figure(args.blends, 2 * args.size, (args.seed, args.seed + 1), args.background_dir, args.episodes)
     else:
         image = gallery(args.size, args.seed, args.background_dir, args.steps)

@@ -54,6 +54,19 @@ def test_beside_lit_and_textured_worlds_the_plain_ones_are_todays_batch_bit_for_
     assert moved.diff(dim=0).abs().sum(-1).gt(0).all(), "the lit worlds' lighting stood still"
 
 
+def test_a_batch_holds_each_blend_of_a_set_once_among_its_renderers_textures():
+    """Worlds at one β share their blends: each renderer holds the model's textures and one floor and one body
+    blend per texture of the set and β (not one per world)."""
+    from dcs_torchrl.textures import texture_set
+
+    k = len(texture_set(None, "train"))
+    env = dcs.make_grouped_env("cartpole", "swingup", [({"texture_scale": 0.5}, 3), ({"texture_scale": 1.0}, 3)],
+                               height=16, width=16, seed=0)
+    ntex = env._worlds[0].physics.model.ntex
+    assert [len(r._textures) for r in env.renderers] == [ntex + 2 * 2 * k] * len(env.renderers)
+    env.close()
+
+
 def _frames(backend: str, domain: str, task: str, settings: dict, seeds, size: int = 64) -> np.ndarray:
     frames = []
     for seed in seeds:

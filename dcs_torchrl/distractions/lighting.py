@@ -134,6 +134,23 @@ class LightingDistraction(DistractionTransform):
         model.light_diffuse[:] = o.light_diffuse * gain
         model.light_specular[:] = o.light_specular * gain
 
+    def hold(self, u) -> None:
+        """Sets this env's lighting to the five numbers ``u`` (:data:`AXES`, each in units of its range at
+        β = 1, within ``[-scale, scale]``) now, in its scene too: for pictures of the range (the gallery). The
+        next reset draws anew; a dynamic walk goes on from ``u``."""
+        u = np.asarray(u, np.float64)
+        if u.shape != (len(AXES),) or np.any(np.abs(u) > self.scale + 1e-12):
+            raise ValueError(f"hold takes the {len(AXES)} numbers {AXES}, each within the scale "
+                             f"[-{self.scale}, {self.scale}]; got {u.tolist()}.")
+        if self.worlds is None or not self._owner:
+            raise RuntimeError("hold sets the lighting of the env this distraction owns: call env.reset() first "
+                               "(a batch's worlds are set through their arrays).")
+        self._worlds.u[self.row], self._worlds.velocity[self.row] = u, 0.0
+        self._worlds._colour(self._rows)
+        physics = self._bind().physics
+        physics.forward()  # the lights' undistracted poses, to orbit again
+        self._edit_scene(physics)
+
     def _state_like(self, scene: Scene) -> np.ndarray:
         return np.zeros(len(AXES), dtype=np.float32)
 

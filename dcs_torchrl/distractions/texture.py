@@ -15,8 +15,9 @@ of the set as a texture of its own and points each world's materials at its draw
 """
 from __future__ import annotations
 
+import collections
 import contextlib
-import functools
+import hashlib
 import os
 from collections.abc import Iterator
 
@@ -87,26 +88,36 @@ def texture_image(model, tex_id: int, data=None) -> np.ndarray:
     return np.asarray(data, np.uint8).reshape(h, w, 3)
 
 
-@functools.lru_cache(maxsize=8)
-def _blends(key: tuple, textures: TextureSet, scale: float, floor_original: bytes, floor_shape: tuple,
-            body_side: int) -> tuple[np.ndarray, np.ndarray]:
-    """Every texture of ``textures`` blended by ``scale`` over the floor's original (uint8 ``[K, h, w, 3]``)
-    and over white for the bodies (``[K, s, s, 3]``); ``key`` identifies the arguments for the cache."""
-    k = len(textures)
-    floor = np.zeros((k, *floor_shape, 3), np.uint8)
-    if floor_shape[0]:
-        base = np.frombuffer(floor_original, np.uint8).reshape(*floor_shape, 3).astype(np.float64)
-        h, w = floor_shape
-        for i in range(k):
-            image = textures.image(i, max(h, w))
-            if h != w:
-                image = cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
-            floor[i] = np.rint((1.0 - scale) * base + scale * image)
+#: The blends made last, by what they are made of: the envs of a process (a batch's worlds) share one copy,
+#: and a batch adds each to its renderers once.
+_BLENDS: "collections.OrderedDict[tuple, tuple[np.ndarray, np.ndarray]]" = collections.OrderedDict()
+_BLENDS_KEPT = 8
+
+
+def _blends(textures: TextureSet, scale: float, floor_original: np.ndarray, body_side: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every texture of ``textures`` blended by ``scale`` over the floor's original texture (uint8 ``[h, w, 3]``;
+    ``[0, 0, 3]``: no floor) into uint8 ``[K, h, w, 3]``, and over white for the bodies into ``[K, s, s, 3]``
+    (``s = body_side``; 0: no bodies). Read-only, and the same arrays for the same arguments."""
+    key = (textures.key, scale, floor_original.shape, hashlib.sha256(floor_original.tobytes()).hexdigest(), body_side)
+    if key in _BLENDS:
+        _BLENDS.move_to_end(key)
+        return _BLENDS[key]
+    k, (h, w) = len(textures), floor_original.shape[:2]
+    floor = np.zeros((k, h, w, 3), np.uint8)
+    base = floor_original.astype(np.float64)
+    for i in range(k if h else 0):
+        image = textures.image(i, max(h, w))
+        if h != w:
+            image = cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
+        floor[i] = np.rint((1.0 - scale) * base + scale * image)
     body = np.zeros((k, body_side, body_side, 3), np.uint8)
     for i in range(k if body_side else 0):
         body[i] = np.rint((1.0 - scale) * 255.0 + scale * textures.image(i, body_side).astype(np.float64))
     floor.setflags(write=False)
     body.setflags(write=False)
+    _BLENDS[key] = floor, body
+    while len(_BLENDS) > _BLENDS_KEPT:
+        _BLENDS.popitem(last=False)
     return floor, body
 
 
@@ -163,16 +174,11 @@ class TextureDistraction(DistractionTransform):
         if not len(self.floor_materials) and not len(self.body_materials):
             raise ValueError(f"the {scene.domain!r} model has no textured floor and no body material: "
                              "TextureDistraction has nothing to texture; leave texture_scale at 0.")
-        floor = np.zeros(0, np.uint8)
-        shape = (0, 0)
+        floor = np.zeros((0, 0, 3), np.uint8)
         if self.floor_texture >= 0:
-            original = originals(scene.physics).texture(self.floor_texture)
-            shape = (int(model.tex_height[self.floor_texture]), int(model.tex_width[self.floor_texture]))
-            floor = np.ascontiguousarray(original, np.uint8)
+            floor = texture_image(model, self.floor_texture, originals(scene.physics).texture(self.floor_texture))
         side = int(model.tex_width[self.body_texture]) if self.body_texture >= 0 else 0
-        data = floor.tobytes()
-        key = (self.textures.key, self.scale, hash(data), shape, side)
-        self.floor_images, self.body_images = _blends(key, self.textures, self.scale, data, shape, side)
+        self.floor_images, self.body_images = _blends(self.textures, self.scale, floor, side)
         self._shown: tuple[int, int] | None = None
         self._upload: list[int] = []
 

@@ -59,7 +59,7 @@ NAMESPACE = "dcs"
 #: (with ``expose_distractions=True``) the distraction state.
 OBS_TYPES = ("pixels", "dict")
 #: How a ``Dict`` observation holds the distraction state: ``"nested"`` (a ``"distractions"`` Dict
-#: of ``"camera"``, ``"color"``, ``"background"``) or ``"flat"`` (``"distractions/camera"``, ... beside
+#: of ``"camera"``, ``"color"``, ``"background"``, ...) or ``"flat"`` (``"distractions/camera"``, ... beside
 #: ``"pixels"`` and ``"state"``: one level of Boxes, what Stable-Baselines3's ``MultiInputPolicy`` takes).
 DICT_LAYOUTS = ("nested", "flat")
 _VERSION = 0
@@ -133,8 +133,8 @@ class DistractingControlEnv(gymnasium.Env):
             ``Box(0, 255, (height, width, 3), uint8)``. ``"dict"``: a ``Dict`` with ``"pixels"``
             (the frame), ``"state"`` (the task's physics observations, concatenated in
             dm_control's order, float64) and, with ``expose_distractions=True``,
-            ``"distractions"`` (``"camera"``, ``"color"``, ``"background"``: what
-            ``make_env(..., expose_distractions=True)`` reports).
+            ``"distractions"`` (``"camera"``, ``"color"``, ``"background"``, and ``"lighting"`` /
+            ``"texture"`` where their scale is not 0: what ``make_env(..., expose_distractions=True)`` reports).
         dict_layout (str): with ``obs_type="dict"``, how the distraction state is laid out:
             ``"nested"`` (default), a ``"distractions"`` Dict; ``"flat"``, the keys
             ``"distractions/camera"``, ``"distractions/color"``, ``"distractions/background"`` beside

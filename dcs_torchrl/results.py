@@ -48,6 +48,8 @@ class RunResults:
             (:data:`dcs_torchrl.videos.EMBEDDED_VERSION`) where the env shows them. An
             evaluation-only run's ``train_env`` is the trained run's record as it is: without
             ``embedded_videos`` where that record has none (recorded before versions were: version 1).
+            Likewise ``standin_textures`` (:data:`dcs_torchrl.textures.STANDIN_VERSION`) where the
+            env textures its surfaces with the stand-in textures.
         sweep: what the run varies in its experiment (``axis``, ``value``, ``dynamic``[, ``eval_split``]).
         eval: the final deterministic evaluation (``EvalResult.to_dict()``).
         config: the run's full resolved config.
@@ -99,19 +101,28 @@ def shows_videos(env: Mapping) -> bool:
 
 
 def with_videos_version(env: Mapping) -> dict:
-    """``env`` (resolved settings) with the embedded videos' version if it shows them.
+    """``env`` (resolved settings) with the embedded videos' version if it shows them, and the stand-in
+    textures' version (``standin_textures``) if it textures its surfaces with them.
 
     >>> from dcs_torchrl.videos import EMBEDDED_VERSION
     >>> with_videos_version({"num_videos": 8, "background_blend": 1.0, "background_dir": None})["embedded_videos"] == EMBEDDED_VERSION
     True
     >>> "embedded_videos" in with_videos_version({"num_videos": 0, "background_blend": 1.0, "background_dir": None})
     False
+    >>> from dcs_torchrl.textures import STANDIN_VERSION
+    >>> with_videos_version({"num_videos": 0, "texture_scale": 0.5, "texture_dir": None})["standin_textures"] == STANDIN_VERSION
+    True
+    >>> "standin_textures" in with_videos_version({"num_videos": 0, "texture_scale": 0.5, "texture_dir": "dtd/images"})
+    False
     """
+    from dcs_torchrl.textures import STANDIN_VERSION
     from dcs_torchrl.videos.embedded import EMBEDDED_VERSION
 
     env = dict(env)
     if shows_videos(env) and not env.get("background_dir"):
         env.setdefault("embedded_videos", EMBEDDED_VERSION)
+    if env.get("texture_scale", 0.0) > 0 and not env.get("texture_dir"):
+        env.setdefault("standin_textures", STANDIN_VERSION)
     return env
 
 

@@ -223,7 +223,8 @@ def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
     """Every resolved make_env setting of a point, and the videos and textures it shows: the embedded
     stand-in videos' version (``embedded_videos``), or a folder's ``background_listing``
     (:func:`_listing_sha256`, computed once per folder in ``listings``); likewise the stand-in
-    textures' version (``standin_textures``) or a ``texture_dir``'s ``texture_listing``. The folders
+    textures' version (``standin_textures``, :func:`~dcs_torchrl.results.with_videos_version`) or a
+    ``texture_dir``'s ``texture_listing``. The folders
     stay as the user gave them (a record names no directory of this machine that the user did not
     write); the listings identify their files. The settings of lighting and textures are there only where
     their distraction is on (:meth:`dcs_torchrl.EnvSettings.as_dict`), so the points of the other axes
@@ -234,13 +235,8 @@ def _point_env(config: dict, overrides: dict, listings: dict[str, str]) -> dict:
     env = with_videos_version(agent_env_settings(config, overrides).as_dict())
     if shows_videos(env) and env["background_dir"]:
         env |= {"background_listing": _listing(env["background_dir"], listings)}
-    if env.get("texture_scale", 0.0) > 0:
-        if env.get("texture_dir"):
-            env |= {"texture_listing": _listing(env["texture_dir"], listings)}
-        else:
-            from dcs_torchrl.textures import STANDIN_VERSION
-
-            env |= {"standin_textures": STANDIN_VERSION}
+    if env.get("texture_scale", 0.0) > 0 and env.get("texture_dir"):
+        env |= {"texture_listing": _listing(env["texture_dir"], listings)}
     return env
 
 

@@ -9,7 +9,7 @@ in the authors' code where action repeat wraps the distracting env.
 
 Seeding: each distraction owns a ``numpy`` generator. ``seed=s`` (or ``env.set_seed(s)``
 on any env built over the same base env) derives it from ``SeedSequence(s,
-spawn_key=(tag,))`` with a tag per distraction type, so the three streams are
+spawn_key=(tag,))`` with a tag per distraction type (1 to 5), so their streams are
 independent and the whole pixel sequence is a function of ``s``.
 """
 from __future__ import annotations

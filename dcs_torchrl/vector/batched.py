@@ -10,12 +10,13 @@ ColorDistraction, BackgroundDistraction))``, seeded as TorchRL's batched envs se
 the task's reward and observation over arrays (:class:`~dcs_torchrl.vector.batch_physics.BatchPhysics`); any other
 task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then the distractions, over
 arrays of all the worlds: each env's transforms keep their state in a row of the batch's ``CameraWorlds``,
-``ColorWorlds`` and ``BackgroundWorlds`` (:meth:`~dcs_torchrl.distractions.base.DistractionTransform.share`),
-which one call each advances. So env ``i``'s rewards, resets, terminations and distraction draws are those of
+``ColorWorlds``, ``BackgroundWorlds``, ``LightingWorlds`` and ``TextureWorlds``
+(:meth:`~dcs_torchrl.distractions.base.DistractionTransform.share`), which one call each advances. So env ``i``'s rewards, resets, terminations and distraction draws are those of
 env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
 (``tests/test_batched.py``). Then the N worlds' poses (:class:`~dcs_torchrl.vector.kinematics.Kinematics`), the
-distractions' cameras and colours and the skies (:class:`~dcs_torchrl.render.skies.BatchSkies`) go, as whole arrays,
-to one :class:`~dcs_torchrl.render.warp.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
+distractions' cameras, colours, lights and material textures and the skies
+(:class:`~dcs_torchrl.render.skies.BatchSkies`) go, as whole arrays, to one
+:class:`~dcs_torchrl.render.warp.WarpRenderer` call on ``device``: ``"pixels"`` is uint8 [N, H, W, 3] there.
 
 Partial resets (``"_reset"``) and partial steps (``"_step"``, which TorchRL's ``rollout`` writes) act on
 the envs they name only; the others continue their episodes.
@@ -29,6 +30,7 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 
+import cv2
 import mujoco
 import numpy as np
 import torch
@@ -82,6 +84,21 @@ def _chunks(n: int, parts: int | None) -> list[range]:
     if isinstance(parts, bool) or not isinstance(parts, int) or parts < 1:
         raise ValueError(f"render_chunks must be a positive integer (or None), got {parts!r}.")
     return shares(n, parts)
+
+
+#: The texture distraction's blends go to the Warp renderers at this fraction of their side (area-averaged):
+#: Warp samples a texture once a pixel without mipmaps, so a coarser copy aliases less where the surface is
+#: seen from afar, and each world's own texture, read by rays of all the worlds, takes a quarter of the memory
+#: (docs/lighting_textures.md, "Both renderers" and "Cost").
+TEXTURE_TABLE_REDUCTION = 2
+
+
+def _reduced(images: np.ndarray, factor: int) -> np.ndarray:
+    """uint8 ``[K, h, w, 3]`` images at ``1 / factor`` of their side (at least one texel), area-averaged."""
+    if factor == 1:
+        return images
+    h, w = max(1, images.shape[1] // factor), max(1, images.shape[2] // factor)
+    return np.stack([cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA) for image in images])
 
 
 _SKYBOX_ASSET = "./common/skybox.xml"  # dm_control's suite models include it (800 x 800 texels a face)
@@ -268,7 +285,8 @@ class BatchedSuiteEnv(EnvBase):
                 if images is None or not images.size:
                     continue
                 if id(images) not in added:
-                    added[id(images)] = [r.add_textures(images) for r in self.renderers][0]
+                    table = _reduced(images, TEXTURE_TABLE_REDUCTION)
+                    added[id(images)] = [r.add_textures(table) for r in self.renderers][0]
                 self._texture.first[i, column] = added[id(images)]
 
     # --------------------------------------------------------------- gathering

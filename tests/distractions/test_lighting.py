@@ -169,3 +169,21 @@ def test_bad_scale_and_a_model_without_lights_are_refused():
     with pytest.raises(ValueError, match="has none: add a <light>"):
         TransformedEnv(base, Compose(LightingDistraction(0.5), RenderPixels(16, 16))).reset()
     TransformedEnv(base, Compose(LightingDistraction(0.0), RenderPixels(16, 16))).reset()  # 0: nothing to turn
+
+
+def test_hold_sets_the_lighting_now_and_refuses_values_outside_the_scale():
+    env = light_env(0.5)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.transform[0].hold([0, 0, 0, 0, 0])
+    env.reset()
+    t, physics = env.transform[0], physics_of(env)
+    t.hold([0.5, 0, -0.5, 0, 0])
+    state = t.state()
+    assert state[0] == pytest.approx(0.5 * lt.MAX_TILT) and state[2] == pytest.approx(1 - 0.5 * lt.GAIN_RANGE)
+    physics.forward()
+    undistracted = physics.data.light_xdir[0].copy()
+    t._edit_scene(physics)
+    assert not np.allclose(physics.data.light_xdir[0], undistracted)  # the light is turned
+    for bad in ([0.6, 0, 0, 0, 0], [0, 0, 0, 0]):
+        with pytest.raises(ValueError, match="within the scale"):
+            t.hold(bad)

@@ -83,7 +83,7 @@ class DistractionTransform(Transform):
     ``ColorWorlds``, ``BackgroundWorlds``), row :attr:`row` of them: on one env a one-world instance of its
     own, in a batch the batch's (:meth:`share`), which then steps and places every world at once. So one
     env and a batch run the same code. Subclasses set ``state_name`` / ``seed_tag`` and implement
-    ``_new_worlds(scene)``, ``_start(physics)`` (the episode start of its row), ``_edit_scene(physics)``
+    ``_new_worlds(scene)``, ``_start(physics)`` where its start needs more than ``Worlds.start(row, self)``, ``_edit_scene(physics)``
     (its row into the one env's scene) and ``_state_like(scene)``; the ``Worlds`` class implements
     ``advance(rows)`` and ``states(rows)``.
 
@@ -225,7 +225,9 @@ class DistractionTransform(Transform):
         raise NotImplementedError
 
     def _start(self, physics) -> None:
-        raise NotImplementedError
+        """The episode start of this distraction's row: its ``Worlds`` class's ``start(row, self)`` (override
+        where the start needs more, e.g. the physics)."""
+        self._worlds.start(self.row, self)
 
     def _edit_scene(self, physics) -> None:
         raise NotImplementedError

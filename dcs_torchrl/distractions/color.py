@@ -52,9 +52,6 @@ class ColorDistraction(DistractionTransform):
     def _new_worlds(self, scene: Scene) -> "ColorWorlds":
         return ColorWorlds(1, scene.physics.model.nmat, scene.frame_skip)
 
-    def _start(self, physics) -> None:
-        self._worlds.start(self.row, self)
-
     def _edit_scene(self, physics) -> None:
         self._worlds.place(self._rows, 0, physics.model.mat_rgba[None])
 

@@ -115,9 +115,6 @@ class LightingDistraction(DistractionTransform):
     def _new_worlds(self, scene: Scene) -> "LightingWorlds":
         return LightingWorlds(1, scene.frame_skip)
 
-    def _start(self, physics) -> None:
-        self._worlds.start(self.row, self)
-
     def _edit_scene(self, physics) -> None:
         worlds, row = self._worlds, self.row
         if not worlds.placed[row]:

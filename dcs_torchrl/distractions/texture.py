@@ -185,9 +185,6 @@ class TextureDistraction(DistractionTransform):
     def _new_worlds(self, scene: Scene) -> "TextureWorlds":
         return TextureWorlds(1)
 
-    def _start(self, physics) -> None:
-        self._worlds.start(self.row, self)
-
     def _edit_scene(self, physics) -> None:
         worlds, row = self._worlds, self.row
         if not worlds.placed[row]:

@@ -2,6 +2,7 @@
 
     python benchmarks/memory.py [--soak-steps 20000] [--reset-every 25] [--domain cartpole --task swingup]
     python benchmarks/memory.py --batched 256 --domain cheetah --task run   # backend="warp" only
+    python benchmarks/memory.py --rebuild 16 [--batched 8]                   # envs built and closed in turn
 
 1. a process holding all 60 embedded training videos (decoded at 256x256);
 2. resident memory added by each further env with dynamic backgrounds (frames shared);
@@ -11,10 +12,16 @@
 
 With ``--batched N``: instead, the resident memory of one ``make_env(..., num_envs=N, backend="warp")``
 env of the medium dynamic benchmark after 20 agent steps, and the process's peak.
+
+With ``--rebuild K``: instead, K envs of the medium dynamic benchmark (seed 0: the same videos, so that the frame
+cache holds what the first one decoded) built, stepped 5 times, closed and dropped one after another (a sweep, an evaluation); the resident memory each leaves behind, after the collector and glibc's
+``malloc_trim``, over the second half (the first fills caches). With ``--batched N`` each is a batch of N
+(``backend="warp"``), else one GL env.
 """
 from __future__ import annotations
 
 import argparse
+import ctypes
 import gc
 import os
 import time
@@ -43,6 +50,33 @@ def peak_mb() -> float:
     return _status_mb("VmHWM")
 
 
+def trimmed_rss_mb() -> float:
+    """The resident memory once the collector has run and glibc has given its free pages back."""
+    gc.collect()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
+    return rss_mb()
+
+
+def rebuild(args) -> None:
+    kind = "GL env" if args.batched is None else f"batch of {args.batched} (backend='warp')"
+    options = {} if args.batched is None else dict(num_envs=args.batched, backend="warp")
+    samples = []
+    for i in range(args.rebuild):
+        env = dcs.make_env(args.domain, args.task, benchmark="medium", dynamic=True, seed=0, **options)
+        action = torch.zeros(env.action_spec.shape, dtype=env.action_spec.dtype)
+        td = env.reset()
+        for _ in range(5):
+            td = env.step(td.set("action", action))["next"]
+        env.close()
+        del env, td
+        samples.append(trimmed_rss_mb())
+    half = samples[len(samples) // 2:]
+    kept = (half[-1] - half[0]) / max(1, len(half) - 1)
+    print(f"{args.rebuild} {args.domain} {args.task} {kind}s built, stepped, closed one after another: "
+          f"resident MB after each {[round(mb) for mb in samples]}; kept per closed env over the second half: "
+          f"{kept:+.1f} MB (frame cache {cache_info().bytes / 2**20:.0f} MB)")
+
+
 def batched(args) -> None:
     start = rss_mb()
     env = dcs.make_env(args.domain, args.task, benchmark="medium", dynamic=True, seed=0, num_envs=args.batched,
@@ -64,10 +98,14 @@ def main():
     parser.add_argument("--envs", type=int, default=4)
     parser.add_argument("--batched", type=int, default=None, metavar="N",
                         help="only the resident memory of N envs of backend='warp' (medium dynamic)")
+    parser.add_argument("--rebuild", type=int, default=None, metavar="K",
+                        help="only what K envs (batches with --batched) built and closed in turn leave behind")
     args = parser.parse_args()
     torch.set_num_threads(1)
     start = rss_mb()
     print(f"python + torch + dm_control imported: {start:.0f} MB")
+    if args.rebuild is not None:
+        return rebuild(args)
     if args.batched is not None:
         return batched(args)
 

@@ -81,12 +81,21 @@ class _Context:
     upload_all_faces: bool = False
 
     def __init__(self, physics, profile: str, width: int, height: int):
-        self.physics = physics
+        # weakly: _CONTEXTS is keyed by the physics, and a value holding its key keeps it (and its GL
+        # context) alive for the life of the process
+        self._physics = weakref.ref(physics)
         self.profile = profile
         self.width, self.height = width, height
         self.uploaded: dict[int, tuple[int, int]] = {}
         self.pending: dict[int, _CubeContent] = {}  # cube textures whose GPU copy is partly stale
         self._make()
+
+    @property
+    def physics(self):
+        physics = self._physics()
+        if physics is None:
+            raise RuntimeError("this render context's physics is gone: render through a live env.")
+        return physics
 
     def _make(self) -> None:
         physics, model = self.physics, self.physics.model

@@ -13,7 +13,6 @@ episode ends only at its time limit): :func:`task_arrays` checks that on the tas
 """
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -34,12 +33,17 @@ class Ids:
 
     def __init__(self, model):
         self.model = model
+        # kept by this Ids, not by a cache on the class (which would keep every batch's model for good)
+        self._ids: dict[tuple[mujoco.mjtObj, str], int] = {}
+        self._sensors: dict[tuple[str, ...], np.ndarray] = {}
 
-    @functools.cache  # noqa: B019 (one Ids per batch, alive as long as it)
     def _id(self, kind: mujoco.mjtObj, name: str) -> int:
-        index = mujoco.mj_name2id(self.model, kind, name)
-        if index < 0:
-            raise KeyError(f"the model has no {kind.name[6:].lower()} named {name!r}")
+        index = self._ids.get((kind, name))
+        if index is None:
+            index = mujoco.mj_name2id(self.model, kind, name)
+            if index < 0:
+                raise KeyError(f"the model has no {kind.name[6:].lower()} named {name!r}")
+            self._ids[kind, name] = index
         return index
 
     def body(self, name: str) -> int:
@@ -54,15 +58,16 @@ class Ids:
     def qpos(self, joint: str) -> int:
         return int(self.model.jnt_qposadr[self._id(mujoco.mjtObj.mjOBJ_JOINT, joint)])
 
-    @functools.cache  # noqa: B019
     def sensor(self, *names: str) -> np.ndarray:
         """The ``sensordata`` indices of ``names``, concatenated (dm_control's ``named.data.sensordata[names]``)."""
-        index = []
-        for name in names:
-            s = self._id(mujoco.mjtObj.mjOBJ_SENSOR, name)
-            adr, dim = int(self.model.sensor_adr[s]), int(self.model.sensor_dim[s])
-            index += range(adr, adr + dim)
-        return np.asarray(index)
+        if names not in self._sensors:
+            index = []
+            for name in names:
+                s = self._id(mujoco.mjtObj.mjOBJ_SENSOR, name)
+                adr, dim = int(self.model.sensor_adr[s]), int(self.model.sensor_dim[s])
+                index += range(adr, adr + dim)
+            self._sensors[names] = np.asarray(index)
+        return self._sensors[names]
 
 
 @dataclass(frozen=True)

@@ -57,20 +57,29 @@ def test_a_closed_warp_batch_is_freed(settings):
     assert all(_freed(refs)), f"still alive: {[i for i, freed in enumerate(_freed(refs)) if not freed]}"
 
 
-def test_a_dropped_gl_envs_contexts_are_freed():
-    """Its GL and MuJoCo render contexts go with its physics."""
+def test_a_dropped_gl_envs_contexts_are_freed_at_the_next_render():
+    """Its GL and MuJoCo render contexts go with its physics: retired by the collector, freed by the next render."""
+    from dcs_torchrl.render import gl
+
     env = make_env("cartpole", "swingup", **SMALL)
     env.rollout(2)
-    contexts = weakref.ref(physics_of(env).contexts.gl)
-    env.close()
-    del env
-    assert _freed([contexts]) == [True]
+    contexts = physics_of(env).contexts
+    del env  # not closed: the collector frees it
+    gc.collect()
+    assert not contexts.gl.terminated and gl._RETIRED
+    other = make_env("cartpole", "swingup", **SMALL)
+    other.rollout(2)
+    assert contexts.gl.terminated and contexts.mujoco.ptr is None and gl._RETIRED == []
+    other.close()
 
 
-def test_an_env_collected_inside_a_render_changes_no_frame(monkeypatch):
-    """The collector may run inside a render (any allocation can start it), and dm_control frees a GL
-    context by making it current: a dropped env freed there leaves the rendering env's frames as they are."""
-    from dm_control.mujoco import engine
+@pytest.mark.parametrize("upload", [5, 9])
+def test_an_env_collected_inside_a_render_changes_no_frame(monkeypatch, upload):
+    """The collector may run inside a render (any allocation can start it). dm_control frees a GL context by
+    making it current, then none: a dropped env freed there would leave the rendering env's next GL calls (a
+    new video frame's upload) to no context, and a stale sky in its frames. Here a collection runs before the
+    ``upload``-th texture upload of a dynamic episode, with a dropped, unclosed env to free."""
+    from OpenGL import GL
 
     def frames():
         env = make_env("cartpole", "swingup", seed=3, benchmark="medium", dynamic=True, **SMALL)
@@ -80,18 +89,19 @@ def test_an_env_collected_inside_a_render_changes_no_frame(monkeypatch):
         return out
 
     expected = frames()
-    render = engine.mujoco.mjr_render
-    collected = []
+    sub_image = GL.glTexSubImage2D
+    calls, collected = [0], []
 
-    def render_after_a_collection(*args):
-        collected.append(gc.collect())
-        return render(*args)
+    def upload_after_a_collection(*args):
+        calls[0] += 1
+        if calls[0] == upload:
+            collected.append(gc.collect())
+        return sub_image(*args)
 
     dropped = make_env("cartpole", "swingup", **SMALL)
     dropped.rollout(2)
-    dropped.close()
-    del dropped  # held by reference cycles: freed by the next collection, inside the next render
-    monkeypatch.setattr(engine.mujoco, "mjr_render", render_after_a_collection)
+    del dropped  # not closed, held by reference cycles: freed by the next collection, inside the render
+    monkeypatch.setattr(GL, "glTexSubImage2D", upload_after_a_collection)
     seen = frames()
-    assert collected and collected[0] > 0
+    assert collected and collected[0] > 0 and calls[0] > upload
     assert torch.equal(seen, expected)

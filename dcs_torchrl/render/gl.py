@@ -84,6 +84,8 @@ class _Context:
         # weakly: _CONTEXTS is keyed by the physics, and a value holding its key keeps it (and its GL
         # context) alive for the life of the process
         self._physics = weakref.ref(physics)
+        self._finalizer: weakref.finalize | None = None
+        self._held = None  # the physics' contexts (GL, MuJoCo): freed by free_retired once the physics is gone
         self.profile = profile
         self.width, self.height = width, height
         self.uploaded: dict[int, tuple[int, int]] = {}
@@ -105,7 +107,10 @@ class _Context:
         model.vis.global_.offheight = self.height
         model.vis.quality.offsamples = settings.msaa_samples
         model.vis.quality.shadowsize = _shadow_size(settings, max(self.width, self.height))
-        physics.contexts  # creates the GL and MuJoCo contexts, uploads every texture
+        self._held = physics.contexts  # creates the GL and MuJoCo contexts, uploads every texture
+        if self._finalizer is None:
+            self._finalizer = weakref.finalize(physics, _RETIRED.append, self)
+            self._finalizer.atexit = False  # dm_control frees its contexts at exit
         self.uploaded = {i: (int(model.tex_width[i]), int(model.tex_height[i])) for i in range(model.ntex)}
         self.skyboxes = {i for i in range(model.ntex) if model.tex_type[i] == mujoco.mjtTexture.mjTEXTURE_SKYBOX}
         self.own_storage: set[int] = set()  # textures given the suite's storage (RGBA8, _SKY_LEVELS levels) here
@@ -292,11 +297,28 @@ def _sub_upload_cubes(jobs: list[tuple[int, list[tuple[int, int, int, list[np.nd
 
 
 _CONTEXTS: "weakref.WeakKeyDictionary[object, _Context]" = weakref.WeakKeyDictionary()
+#: the suite's render contexts whose physics is gone, freed by :func:`free_retired` before the next render.
+#: Not by the garbage collector: it may run inside another context's render, and dm_control frees a
+#: context by making it current and then none, so that render's remaining GL calls (a new video frame's
+#: upload) would go to no context (tests/test_memory.py).
+_RETIRED: list[_Context] = []
+
+
+def free_retired() -> None:
+    """Frees the GL and MuJoCo contexts of every physics gone since the last call (the suite calls it
+    before each render; call it yourself to release them sooner)."""
+    while _RETIRED:
+        context = _RETIRED.pop()
+        held, context._held = context._held, None
+        if held is not None:
+            held.mujoco.free()
+            held.gl.free()
 
 
 def render_context(physics, profile: str, width: int, height: int) -> _Context:
     """The suite's render context of ``physics`` (created on first use)."""
     check_profile(profile)
+    free_retired()
     context = _CONTEXTS.get(physics)
     if context is None:
         context = _CONTEXTS[physics] = _Context(physics, profile, width, height)

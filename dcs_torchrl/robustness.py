@@ -78,10 +78,11 @@ class Point:
             raise ValueError(f"the {self.axis} axis is static only (its distraction is drawn once an episode "
                              "whatever the setting): give dynamic=False.")
 
-    def overrides(self, background_dir: str | None = None, num_videos: int = 60) -> dict:
+    def overrides(self, background_dir: str | None = None, num_videos: int = 60, texture_dir: str | None = None) -> dict:
         """The make_env settings of this point (none at intensity 0: the undistracted env);
         ``background_dir`` is the background axis' video folder (``None``: the embedded videos),
-        ``num_videos`` how many of its videos it uses (the paper: b = 60)."""
+        ``num_videos`` how many of its videos it uses (the paper: b = 60), ``texture_dir`` the texture
+        axis' image folder (``None``: the agent's own setting, by default the stand-in textures)."""
         from dcs_torchrl.report.experiments import SWEEP_AXES
 
         if self.value == 0:
@@ -92,6 +93,8 @@ class Point:
             out["num_videos"] = num_videos
         if background_dir is not None and self.axis == "background":
             out["background_dir"] = os.fspath(background_dir)
+        if texture_dir is not None and self.axis == "texture":
+            out["texture_dir"] = os.fspath(texture_dir)
         return out
 
     @property
@@ -99,9 +102,9 @@ class Point:
         """The axis of results.json and the report (the 2021 code's blend is its own axis there)."""
         return "background_blend_2021" if self.reference_blend else AXES[self.axis]
 
-    def key(self, background_dir: str | None = None, num_videos: int = 60) -> str:
+    def key(self, background_dir: str | None = None, num_videos: int = 60, texture_dir: str | None = None) -> str:
         """The same for every point of the same env (all points at intensity 0 share one)."""
-        return json.dumps(self.overrides(background_dir, num_videos), sort_keys=True)
+        return json.dumps(self.overrides(background_dir, num_videos, texture_dir), sort_keys=True)
 
 
 def sweep_points(axes: Iterable[str] = tuple(AXES), intensities: Iterable[float] = QUICK_INTENSITIES,
@@ -321,10 +324,22 @@ def _background(background_dir: str | os.PathLike | None, num_videos: int | None
     return background_dir, num_videos
 
 
+def _textures(texture_dir: str | os.PathLike | None) -> str | None:
+    """The texture axis' folder as given (``None``: the agent's setting), refused here, before anything is
+    evaluated, where make_env would refuse it (missing, a file, no images, too few for a split)."""
+    if texture_dir is None:
+        return None
+    from dcs_torchrl.textures import texture_set
+
+    texture_set(texture_dir, "train")
+    return os.fspath(texture_dir)
+
+
 def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os.PathLike, *, episodes: int = 10,
                 workers: int = 1, background_dir: str | os.PathLike | None = None, num_videos: int | None = None,
                 progress: bool = True, render_devices: Sequence[int | str] | None = None,
-                backend: str = "gl", trust_checkpoint: bool = False) -> list[dict]:
+                backend: str = "gl", trust_checkpoint: bool = False,
+                texture_dir: str | os.PathLike | None = None) -> list[dict]:
     """Evaluates a trained agent (shipped name, exported agent or finished run) at every point.
 
     Each evaluated point is written to ``out/points/<id>.json`` as soon as it is done. A stored
@@ -338,7 +353,9 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
     rendering on ``render_devices[i % len]`` (EGL indices or ``"cuda:N"``; ``None``: this
     process's device; :func:`dcs_torchrl.evaluation.scheduling.evaluate_settings`). The background
     axis shows the first ``num_videos`` training videos (default: 60, the paper's b, or all of a
-    folder that holds fewer). ``backend="warp"``: several points' episodes all at once, in one batched
+    folder that holds fewer); the texture axis the images of ``texture_dir`` (a folder of the user's,
+    e.g. DTD's ``dtd/images``, its training split; ``None``: the agent's own env setting, by default
+    the stand-in textures). ``backend="warp"``: several points' episodes all at once, in one batched
     env rendered by MuJoCo Warp (:meth:`~dcs_torchrl.pretrained.Pretrained.evaluate_each`: each point's
     returns those of its own ``evaluate(backend="warp")``); its points are stored apart from GL's.
     ``trust_checkpoint``: as :func:`~dcs_torchrl.pretrained.load_pretrained` (off: an agent whose
@@ -357,8 +374,9 @@ def sweep_agent(agent: str | os.PathLike, points: Sequence[Point], out: str | os
         raise ValueError(f"episodes and workers must be >= 1, got {episodes} and {workers}.")
     devices = render_device_indices(render_devices)  # a device this machine lacks: refused before anything is written
     background_dir, num_videos = _background(background_dir, num_videos)
-    keys = [p.key(background_dir, num_videos) for p in points]
-    settings = {key: p.overrides(background_dir, num_videos) for key, p in zip(keys, points)}
+    texture_dir = _textures(texture_dir)
+    keys = [p.key(background_dir, num_videos, texture_dir) for p in points]
+    settings = {key: p.overrides(background_dir, num_videos, texture_dir) for key, p in zip(keys, points)}
     identity = _agent_identity(directory, results)
     if backend not in ("gl", "warp"):
         raise ValueError(f"unknown backend {backend!r}; choose 'gl' or 'warp'.")
@@ -461,7 +479,8 @@ def _parser() -> argparse.ArgumentParser:
         epilog="Each evaluated point is stored in <out>/points/ as soon as it is done; run again, the command "
                "evaluates only the points it does not hold (an interrupted sweep resumes). A stored point is reused "
                "only where the episodes, the agent's checkpoint (SHA-256), every resolved env setting and the videos "
-               "shown (stand-in version, or --background-dir's path and file listing) all match; the CSV, table and "
+               "shown (stand-in version, or --background-dir's path and file listing; so too the textures and "
+               "--texture-dir) all match; the CSV, table and "
                "figure hold this run's points only. An --out with another agent's points, or with this agent's from "
                "another checkpoint (retrained under the same name), is refused: choose another --out.")
     parser.add_argument("agent", help="a shipped agent's name (e.g. sac_rad_cartpole_swingup), an exported agent "
@@ -483,6 +502,9 @@ def _parser() -> argparse.ArgumentParser:
                              "'both': a curve of each (default: %(default)s)")
     parser.add_argument("--background-dir", default=None, help="DAVIS 2017 JPEGImages/480p or a folder of videos "
                                                               "(default: the embedded stand-in videos)")
+    parser.add_argument("--texture-dir", default=None,
+                        help="a folder of images for the texture axis, e.g. DTD's dtd/images, its training split "
+                             "(default: the agent's own setting, by default the stand-in textures)")
     parser.add_argument("--num-videos", type=int, default=None, metavar="B",
                         help="the background axis' b: its first B training videos (default: 60, the paper's, "
                              "or all of a --background-dir that holds fewer)")
@@ -514,8 +536,10 @@ def main(argv=None) -> dict[str, Path]:
     started = time.time()
     rows = sweep_agent(args.agent, points, out, episodes=args.episodes, workers=args.workers,
                        background_dir=args.background_dir, num_videos=args.num_videos, progress=not args.no_progress,
-                       render_devices=args.render_devices, backend=args.backend, trust_checkpoint=args.trust_checkpoint)
+                       render_devices=args.render_devices, backend=args.backend, trust_checkpoint=args.trust_checkpoint,
+                       texture_dir=args.texture_dir)
     videos = f", backgrounds from {Path(args.background_dir).name}" if args.background_dir else ""
+    videos += f", textures from {Path(args.texture_dir).name}" if args.texture_dir else ""
     videos += f", b = {args.num_videos} videos" if args.num_videos is not None else ""
     paths = write_outputs(rows, out, title=f"{rows[0]['method']} on {rows[0]['domain']} {rows[0]['task']} "
                                            f"(seed {rows[0]['seed']}), {args.episodes} episodes per point{videos}",

@@ -551,3 +551,57 @@ def test_texture_points_on_another_texture_folder_are_evaluated_again(tmp_path, 
         (0.5, None), (None, 0.5), (0.5, None)]
     records = [json.loads(p.read_text()) for p in (tmp_path / "out" / "points").iterdir()]
     assert sorted(r["env"].get("texture_dir") or "" for r in records) == ["", str(folder), "textures"]
+
+
+def _texture_folder(folder, n=6):
+    import cv2
+    import numpy as np
+
+    folder.mkdir()
+    for i in range(n):
+        cv2.imwrite(str(folder / f"t{i}.png"), np.full((8, 8, 3), 40 * i, np.uint8))
+    return folder
+
+
+def test_texture_dir_gives_the_texture_points_its_images_and_keys_them(tmp_path, evaluated):
+    """--texture-dir reaches the texture axis' points only; those points are the folder's (its listing in
+    their identity: evaluated again without it, or with another image in it), the other axes' points stay."""
+    import cv2
+    import numpy as np
+
+    folder = _texture_folder(tmp_path / "textures")
+    points = [Point("texture", 0.5, False), Point("light", 0.5, False), Point("background", 0.5, False),
+              Point("texture", 0.0, False)]
+    sweep(tmp_path / "out", points, texture_dir=folder)
+    assert [o.get("texture_dir") for o in evaluated] == [str(folder), None, None, None]
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out" / "points").iterdir()]
+    textured = [r for r in records if r["overrides"].get("texture_scale")]
+    assert len(textured) == 1 and textured[0]["env"]["texture_dir"] == str(folder)
+    assert re.fullmatch("[0-9a-f]{64}", textured[0]["env"]["texture_listing"])
+    assert all("texture_dir" not in r["env"] for r in records if r not in textured)
+    sweep(tmp_path / "out", points, texture_dir=folder)  # stored: reused
+    sweep(tmp_path / "out", points)  # the stand-ins: the texture point again
+    cv2.imwrite(str(folder / "t6.png"), np.zeros((8, 8, 3), np.uint8))
+    sweep(tmp_path / "out", points, texture_dir=folder)  # another image in the folder: again
+    assert [(o.get("texture_scale"), o.get("texture_dir")) for o in evaluated[4:]] == [(0.5, None), (0.5, str(folder))]
+
+
+@pytest.mark.parametrize("make, error", [
+    (lambda tmp: tmp / "missing", "does not exist"),
+    (lambda tmp: _texture_folder(tmp / "empty", 0), "no image files"),
+])
+def test_a_bad_texture_dir_is_refused_before_anything_is_written(tmp_path, evaluated, make, error):
+    with pytest.raises(ValueError, match=error):
+        sweep(tmp_path / "out", [Point("texture", 0.5, False)], texture_dir=make(tmp_path))
+    assert evaluated == [] and not (tmp_path / "out").exists()
+
+
+def test_the_command_takes_texture_dir_and_names_it(tmp_path, evaluated, monkeypatch, capsys):
+    import dcs_torchrl.report.figures
+
+    monkeypatch.setattr(dcs_torchrl.report.figures, "curves_figure", lambda *_, **__: None)
+    folder = _texture_folder(tmp_path / "dtd_images")
+    main([AGENT, "--axes", "texture", "--intensities", "0", "0.5", "--episodes", "1", "--texture-dir", str(folder),
+          "--out", str(tmp_path / "out"), "--no-progress"])
+    assert [o.get("texture_dir") for o in evaluated] == [None, str(folder)]
+    assert "textures from dtd_images" in capsys.readouterr().out

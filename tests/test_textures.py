@@ -248,6 +248,19 @@ def test_a_split_without_images_says_how_many_there_are_and_the_rule(tmp_path):
         texture_set(tmp_path, "val")
 
 
+def test_a_folder_linked_into_itself_names_the_link(tmp_path):
+    """A symbolic link to a folder above it is refused, naming it; a link to a folder elsewhere is followed."""
+    _write(tmp_path / "elsewhere" / "far.png", (9, 9, 9))
+    root = tmp_path / "textures"
+    _write(root / "cat" / "0.png", (1, 1, 1))
+    (root / "cat" / "more").symlink_to(tmp_path / "elsewhere", target_is_directory=True)
+    assert texture_set(root).names == ("cat/0.png", "cat/more/far.png")
+    (root / "cat" / "loop").symlink_to(root, target_is_directory=True)
+    with pytest.raises(ValueError, match=r"cat/loop is a link to a folder above it .*Remove the link, or point "
+                                         r"texture_dir below it"):
+        texture_set(root)
+
+
 def test_a_corrupt_image_is_named(tmp_path):
     for i in range(4):
         _write(tmp_path / f"{i}.png", (i, i, i))

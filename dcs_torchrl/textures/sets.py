@@ -159,13 +159,18 @@ def _read_nth(files: tuple[Path, ...], index: int, size: int) -> np.ndarray:
     return read_texture(files[index], size)
 
 
-def image_files(root: Path) -> list[Path]:
+def image_files(root: Path, _above: tuple[str, ...] = ()) -> list[Path]:
     """Every image file (jpg, jpeg, png, bmp; any case) under ``root``, recursively, hidden files and
-    folders skipped, sorted by relative path with numbers compared by value."""
+    folders skipped, sorted by relative path with numbers compared by value. A folder linked into itself
+    (a symbolic link to a folder above it) is refused, naming the link."""
+    here = os.path.realpath(root)
+    if here in _above:
+        raise ValueError(f"{root} is a link to a folder above it ({here}): the texture folder would hold itself "
+                         "without end. Remove the link, or point texture_dir below it.")
     found = []
     for entry in visible_entries(root):
         if entry.is_dir():
-            found += image_files(Path(entry.path))
+            found += image_files(Path(entry.path), (*_above, here))
         elif entry.is_file() and os.path.splitext(entry.name)[1].lower() in TEXTURE_EXTENSIONS:
             found.append(Path(entry.path))
     return found

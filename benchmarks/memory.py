@@ -14,8 +14,9 @@ With ``--batched N``: instead, the resident memory of one ``make_env(..., num_en
 env of the medium dynamic benchmark after 20 agent steps, and the process's peak.
 
 With ``--rebuild K``: instead, K envs of the medium dynamic benchmark (seed 0: the same videos, so that the frame
-cache holds what the first one decoded) built, stepped 5 times, closed and dropped one after another (a sweep, an evaluation); the resident memory each leaves behind, after the collector and glibc's
-``malloc_trim``, over the second half (the first fills caches). With ``--batched N`` each is a batch of N
+cache holds what the first one decoded) built, stepped 5 times, closed and dropped one after another (a sweep,
+an evaluation); the resident memory each leaves behind, after the collector and glibc's ``malloc_trim``, over
+the second half (the first fills caches). With ``--batched N`` each is a batch of N
 (``backend="warp"``), else one GL env.
 """
 from __future__ import annotations

@@ -78,7 +78,8 @@ class Point:
             raise ValueError(f"the {self.axis} axis is static only (its distraction is drawn once an episode "
                              "whatever the setting): give dynamic=False.")
 
-    def overrides(self, background_dir: str | None = None, num_videos: int = 60, texture_dir: str | None = None) -> dict:
+    def overrides(self, background_dir: str | None = None, num_videos: int = 60,
+                  texture_dir: str | None = None) -> dict:
         """The make_env settings of this point (none at intensity 0: the undistracted env);
         ``background_dir`` is the background axis' video folder (``None``: the embedded videos),
         ``num_videos`` how many of its videos it uses (the paper: b = 60), ``texture_dir`` the texture

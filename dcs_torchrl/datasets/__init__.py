@@ -6,8 +6,8 @@
 A set holds, per transition, in TorchRL's TED layout (root and ``"next"``): the action, the
 reward, ``terminated`` / ``truncated`` / ``done``, the task's state (``"state"``: the
 proprioceptive observation), the distractions' state (``"distractions"``: camera, colour,
-background; lighting and texture where on), and the frames (uint8, each stored once; with ``--backend warp --masks`` the masks too),
-memory-mapped, with a ``metadata.json`` of every setting that made it. docs/datasets.md has the
+background; lighting and texture where on), and the frames (uint8, each stored once; with
+``--backend warp --masks`` the masks too), memory-mapped, with a ``metadata.json`` of every setting that made it. docs/datasets.md has the
 layout, the commands and the sizes.
 
 - :func:`generate`: make (resume, extend) a set; refuses one made with other settings.

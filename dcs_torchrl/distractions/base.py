@@ -83,8 +83,8 @@ class DistractionTransform(Transform):
     ``ColorWorlds``, ``BackgroundWorlds``), row :attr:`row` of them: on one env a one-world instance of its
     own, in a batch the batch's (:meth:`share`), which then steps and places every world at once. So one
     env and a batch run the same code. Subclasses set ``state_name`` / ``seed_tag`` and implement
-    ``_new_worlds(scene)``, ``_start(physics)`` where its start needs more than ``Worlds.start(row, self)``, ``_edit_scene(physics)``
-    (its row into the one env's scene) and ``_state_like(scene)``; the ``Worlds`` class implements
+    ``_new_worlds(scene)``, ``_start(physics)`` where its start needs more than ``Worlds.start(row, self)``,
+    ``_edit_scene(physics)`` (its row into the one env's scene) and ``_state_like(scene)``; the ``Worlds`` class implements
     ``advance(rows)`` and ``states(rows)``.
 
     Keyword Args:

@@ -84,13 +84,13 @@ class _Context:
         # weakly: _CONTEXTS is keyed by the physics, and a value holding its key keeps it (and its GL
         # context) alive for the life of the process
         self._physics = weakref.ref(physics)
-        self._finalizer: weakref.finalize | None = None
         self._held = None  # the physics' contexts (GL, MuJoCo): freed by free_retired once the physics is gone
         self.profile = profile
         self.width, self.height = width, height
         self.uploaded: dict[int, tuple[int, int]] = {}
         self.pending: dict[int, _CubeContent] = {}  # cube textures whose GPU copy is partly stale
         self._make()
+        weakref.finalize(physics, _RETIRED.append, self).atexit = False  # dm_control frees its contexts at exit
 
     @property
     def physics(self):
@@ -108,9 +108,6 @@ class _Context:
         model.vis.quality.offsamples = settings.msaa_samples
         model.vis.quality.shadowsize = _shadow_size(settings, max(self.width, self.height))
         self._held = physics.contexts  # creates the GL and MuJoCo contexts, uploads every texture
-        if self._finalizer is None:
-            self._finalizer = weakref.finalize(physics, _RETIRED.append, self)
-            self._finalizer.atexit = False  # dm_control frees its contexts at exit
         self.uploaded = {i: (int(model.tex_width[i]), int(model.tex_height[i])) for i in range(model.ntex)}
         self.skyboxes = {i for i in range(model.ntex) if model.tex_type[i] == mujoco.mjtTexture.mjTEXTURE_SKYBOX}
         self.own_storage: set[int] = set()  # textures given the suite's storage (RGBA8, _SKY_LEVELS levels) here

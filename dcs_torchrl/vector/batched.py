@@ -11,7 +11,8 @@ the task's reward and observation over arrays (:class:`~dcs_torchrl.vector.batch
 task runs its dm_control env ``k`` times with the action, as ``DMControlEnv`` does. Then the distractions, over
 arrays of all the worlds: each env's transforms keep their state in a row of the batch's ``CameraWorlds``,
 ``ColorWorlds``, ``BackgroundWorlds``, ``LightingWorlds`` and ``TextureWorlds``
-(:meth:`~dcs_torchrl.distractions.base.DistractionTransform.share`), which one call each advances. So env ``i``'s rewards, resets, terminations and distraction draws are those of
+(:meth:`~dcs_torchrl.distractions.base.DistractionTransform.share`), which one call each advances. So env
+``i``'s rewards, resets, terminations and distraction draws are those of
 env ``i`` of ``ParallelSuiteEnv(N, partial(make_env, ...))`` seeded alike, bit for bit
 (``tests/test_batched.py``). Then the N worlds' poses (:class:`~dcs_torchrl.vector.kinematics.Kinematics`), the
 distractions' cameras, colours, lights and material textures and the skies
